@@ -1,0 +1,96 @@
+//! The `ghm` command line: argument parsing, run folders, progress and messages.
+//! Every failure becomes a [`CliError`] with a message that says what to do; nothing here
+//! panics on user input.
+
+mod check;
+mod output;
+mod simulate;
+mod weather_args;
+
+use clap::{Parser, Subcommand};
+use std::path::PathBuf;
+use thiserror::Error;
+
+/// Errors of the command line, each printed as one clear message.
+#[derive(Debug, Error)]
+pub enum CliError {
+    /// The model file has errors; the rendered diagnostics are the message.
+    #[error("{0}")]
+    Model(String),
+    #[error("{0}")]
+    Weather(#[from] crate::sim::weather::WeatherError),
+    #[error("{0}")]
+    Simulation(#[from] crate::sim::season::SimError),
+    #[error("{0}")]
+    Argument(String),
+    #[error("cannot write {path}: {message}")]
+    Output { path: PathBuf, message: String },
+    #[error("derivative check failed: largest relative error {0:.3e} exceeds 1e-6")]
+    DerivativeCheck(f64),
+}
+
+#[derive(Debug, Parser)]
+#[command(
+    name = "ghm",
+    version,
+    about = "Economic model-predictive control with learned guidance, from .ghm model files",
+    long_about = "ghm compiles a plant and its economic cost written in the .ghm language into exact-derivative \
+functions, and runs seasons of control on it: fixed inputs, economic MPC, learned policies and RL-guided MPC.\n\n\
+Start with `ghm check models/lettuce.ghm`, then `ghm simulate models/lettuce.ghm`."
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Parse and check a model, print a summary (and optionally verify its derivatives).
+    Check(check::CheckArgs),
+    /// Run a season with fixed inputs or inputs from a CSV file.
+    Simulate(simulate::SimulateArgs),
+}
+
+/// Runs the command line; returns the process exit code.
+pub fn main() -> i32 {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Check(a) => check::run(&a),
+        Command::Simulate(a) => simulate::run(&a),
+    };
+    match result {
+        Ok(()) => 0,
+        Err(CliError::Model(text)) => {
+            eprint!("{text}");
+            1
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            1
+        }
+    }
+}
+
+/// Loads and checks a model, printing its warnings; errors become [`CliError::Model`].
+pub(crate) fn load_model(path: &std::path::Path) -> Result<crate::lang::Model, CliError> {
+    match crate::lang::load(path) {
+        Ok(m) => {
+            if !m.warnings.is_empty() {
+                eprint!(
+                    "{}",
+                    crate::lang::diagnostic::render(&m.sources, &m.warnings)
+                );
+            }
+            Ok(m)
+        }
+        Err(f) => {
+            let n = f.error_count();
+            Err(CliError::Model(format!(
+                "{}error: {} has {n} error{}; nothing was run\n",
+                f.render(),
+                path.display(),
+                if n == 1 { "" } else { "s" }
+            )))
+        }
+    }
+}

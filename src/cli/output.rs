@@ -1,0 +1,225 @@
+//! Run folders: the per-step trajectory CSV (written and flushed as the season runs, so a
+//! run stopped halfway keeps its rows), `summary.json`, the trajectory plot, and the
+//! progress bar.
+
+use crate::cli::CliError;
+use crate::model::Plant;
+use crate::report::plot::{draw_png, Figure, Line, Panel};
+use crate::sim::season::{StepLog, StepSink};
+use indicatif::{ProgressBar, ProgressStyle};
+use sha2::{Digest, Sha256};
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+pub fn create_dir(dir: &Path) -> Result<(), CliError> {
+    std::fs::create_dir_all(dir).map_err(|e| CliError::Output {
+        path: dir.to_path_buf(),
+        message: e.to_string(),
+    })
+}
+
+fn io_err(path: &Path) -> impl Fn(std::io::Error) -> CliError + '_ {
+    move |e| CliError::Output {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    }
+}
+
+/// SHA-256 of the model file and its imports, in load order.
+pub fn model_hash(plant: &Plant) -> String {
+    let mut h = Sha256::new();
+    for f in &plant.model.sources.files {
+        h.update(f.text.as_bytes());
+    }
+    h.finalize().iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// Writes `trajectory.csv`, keeps the series for the plot, and drives the progress bar.
+pub struct TrajectoryWriter {
+    path: PathBuf,
+    out: BufWriter<File>,
+    steps_per_day: usize,
+    pub logs: Vec<StepLog>,
+    bar: ProgressBar,
+}
+
+impl TrajectoryWriter {
+    pub fn create(dir: &Path, plant: &Plant, steps: usize) -> Result<TrajectoryWriter, CliError> {
+        let path = dir.join("trajectory.csv");
+        let file = File::create(&path).map_err(io_err(&path))?;
+        let mut out = BufWriter::new(file);
+        let m = &plant.model;
+        let mut header = vec!["k".to_string(), "time_h".to_string()];
+        header.extend(m.states.iter().map(|s| format!("x_{}", s.info.name)));
+        header.extend(m.outputs.iter().map(|o| format!("y_{}", o.info.name)));
+        header.extend(m.inputs.iter().map(|u| format!("u_{}", u.info.name)));
+        header.extend(m.disturbances.iter().map(|d| format!("d_{}", d.info.name)));
+        header.extend(
+            plant
+                .stage_term_index
+                .iter()
+                .map(|&i| format!("term_{}", m.terms[i].info.name)),
+        );
+        header.push("economic".into());
+        header.extend(
+            m.soft
+                .iter()
+                .map(|b| format!("penalty_{}", m.outputs[b.output].info.name)),
+        );
+        header.extend(
+            [
+                "reward",
+                "cumulative_reward",
+                "solve_ms",
+                "iterations",
+                "status",
+                "fallback",
+            ]
+            .map(String::from),
+        );
+        writeln!(out, "{}", header.join(",")).map_err(io_err(&path))?;
+        let steps_per_day = (86400.0 / m.sample_period).round().max(1.0) as usize;
+        let bar = ProgressBar::new(steps as u64);
+        bar.set_style(
+            ProgressStyle::with_template(
+                "{spinner} day {msg} [{bar:30}] {pos}/{len} steps ({per_sec}, eta {eta})",
+            )
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+        );
+        Ok(TrajectoryWriter {
+            path,
+            out,
+            steps_per_day,
+            logs: Vec::with_capacity(steps),
+            bar,
+        })
+    }
+
+    pub fn finish(&mut self) -> Result<(), CliError> {
+        self.bar.finish_and_clear();
+        self.out.flush().map_err(io_err(&self.path))
+    }
+}
+
+impl StepSink for TrajectoryWriter {
+    fn step(&mut self, log: &StepLog) -> Result<(), String> {
+        let mut row: Vec<String> = vec![
+            log.step.to_string(),
+            format!("{}", log.step as f64 * 24.0 / self.steps_per_day as f64),
+        ];
+        let nums = log
+            .state
+            .iter()
+            .chain(&log.outputs)
+            .chain(&log.input)
+            .chain(&log.disturbance)
+            .chain(&log.terms)
+            .chain(std::iter::once(&log.economic))
+            .chain(&log.penalties)
+            .chain([&log.reward, &log.cumulative_reward]);
+        row.extend(nums.map(|v| format!("{v:e}")));
+        row.push(format!("{:.4}", log.record.solve_time_s * 1e3));
+        row.push(log.record.iterations.to_string());
+        row.push(log.record.status.clone());
+        row.push(log.record.fallback.clone().unwrap_or_default());
+        writeln!(self.out, "{}", row.join(",")).map_err(|e| e.to_string())?;
+        if (log.step + 1) % self.steps_per_day == 0 {
+            self.out.flush().map_err(|e| e.to_string())?;
+        }
+        self.bar.set_position(log.step as u64 + 1);
+        self.bar.set_message(format!(
+            "{} reward {:+.3}",
+            log.step / self.steps_per_day + 1,
+            log.cumulative_reward
+        ));
+        self.logs.push(log.clone());
+        Ok(())
+    }
+}
+
+/// Writes `summary.json`.
+pub fn write_summary(dir: &Path, summary: &serde_json::Value) -> Result<(), CliError> {
+    let path = dir.join("summary.json");
+    let text = serde_json::to_string_pretty(summary).map_err(|e| CliError::Output {
+        path: path.clone(),
+        message: e.to_string(),
+    })?;
+    std::fs::write(&path, text + "\n").map_err(io_err(&path))
+}
+
+/// Draws `trajectory.png`: each state and output with its band, the inputs, and the
+/// cumulative reward, against time in days.
+pub fn plot_trajectory(
+    dir: &Path,
+    plant: &Plant,
+    logs: &[StepLog],
+    title: &str,
+) -> Result<(), CliError> {
+    let m = &plant.model;
+    let per_day = 86400.0 / m.sample_period;
+    let x: Vec<f64> = logs.iter().map(|l| l.step as f64 / per_day).collect();
+    let mut panels = Vec::new();
+    for (i, o) in m.outputs.iter().enumerate() {
+        let band = m
+            .soft
+            .iter()
+            .find(|b| b.output == i)
+            .map(|b| (b.lower, b.upper));
+        panels.push(Panel {
+            title: o
+                .info
+                .description
+                .split('(')
+                .next()
+                .unwrap_or(&o.info.name)
+                .trim()
+                .to_string(),
+            unit: o.info.unit.clone(),
+            lines: vec![Line {
+                label: o.info.name.clone(),
+                values: logs.iter().map(|l| l.outputs[i]).collect(),
+            }],
+            band,
+        });
+    }
+    for (i, u) in m.inputs.iter().enumerate() {
+        panels.push(Panel {
+            title: u
+                .info
+                .description
+                .split('(')
+                .next()
+                .unwrap_or(&u.info.name)
+                .trim()
+                .to_string(),
+            unit: u.info.unit.clone(),
+            lines: vec![Line {
+                label: u.info.name.clone(),
+                values: logs.iter().map(|l| l.input[i]).collect(),
+            }],
+            band: None,
+        });
+    }
+    panels.push(Panel {
+        title: "cumulative reward".into(),
+        unit: "EUR m^-2".into(),
+        lines: vec![Line {
+            label: "reward".into(),
+            values: logs.iter().map(|l| l.cumulative_reward).collect(),
+        }],
+        band: None,
+    });
+    let fig = Figure {
+        title: title.to_string(),
+        x_label: "day".into(),
+        x,
+        panels,
+    };
+    let path = dir.join("trajectory.png");
+    draw_png(&fig, &path).map_err(|e| CliError::Output {
+        path,
+        message: e.to_string(),
+    })
+}

@@ -1,0 +1,151 @@
+//! `ghm simulate`: a season with fixed inputs or inputs from a CSV file.
+
+use crate::cli::output::{
+    create_dir, model_hash, plot_trajectory, write_summary, TrajectoryWriter,
+};
+use crate::cli::weather_args::WeatherArgs;
+use crate::cli::{load_model, CliError};
+use crate::control::{ConstantInput, Controller, InputTable};
+use crate::model::Plant;
+use crate::sim::season::{run_season, SeasonConfig, UncertaintyDraw};
+use clap::Args;
+use serde_json::json;
+use std::path::{Path, PathBuf};
+
+#[derive(Debug, Args)]
+pub struct SimulateArgs {
+    /// The model file (.ghm).
+    pub file: PathBuf,
+    #[command(flatten)]
+    pub weather: WeatherArgs,
+    /// Inputs: `const:u1,u2,...` for the same input every step, or a CSV file with one row per
+    /// step and one column per input (named as the model's inputs). Default: the start input.
+    #[arg(long, value_name = "const:U,.. | FILE.csv")]
+    pub inputs: Option<String>,
+    /// Apply the inputs as given, without clipping to bounds and rate limits.
+    #[arg(long)]
+    pub no_rate_limit: bool,
+    /// Parametric uncertainty δ (relative half-width; the model file says which parameters
+    /// and how often they are redrawn). 0 = the nominal, deterministic plant.
+    #[arg(long, value_name = "DELTA", default_value_t = 0.0)]
+    pub uncertainty: f64,
+    /// Seed of the parameter draws.
+    #[arg(long, value_name = "S", default_value_t = 4)]
+    pub seed: u64,
+    /// Run folder for trajectory.csv, summary.json and trajectory.png.
+    #[arg(long, value_name = "DIR", default_value = "runs/simulate")]
+    pub out: PathBuf,
+}
+
+fn parse_inputs(spec: Option<&str>, plant: &Plant) -> Result<Box<dyn Controller>, CliError> {
+    let nu = plant.layout.nu;
+    let Some(spec) = spec else {
+        return Ok(Box::new(ConstantInput(plant.model.start_input())));
+    };
+    if let Some(list) = spec.strip_prefix("const:") {
+        let values: Result<Vec<f64>, _> =
+            list.split(',').map(|s| s.trim().parse::<f64>()).collect();
+        let values = values.map_err(|_| {
+            CliError::Argument(format!(
+                "--inputs const:{list}: expected {nu} comma-separated numbers"
+            ))
+        })?;
+        if values.len() != nu {
+            return Err(CliError::Argument(format!(
+                "--inputs const: gives {} values; the model has {nu} inputs ({})",
+                values.len(),
+                plant
+                    .model
+                    .inputs
+                    .iter()
+                    .map(|u| u.info.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )));
+        }
+        return Ok(Box::new(ConstantInput(values)));
+    }
+    let path = Path::new(spec);
+    let names: Vec<String> = plant
+        .model
+        .inputs
+        .iter()
+        .map(|u| u.info.name.clone())
+        .collect();
+    let frame = crate::sim::weather::load_csv(path, &names, plant.model.sample_period)?;
+    let rows = frame.rows();
+    let w = frame.select(&names, 0, rows)?;
+    Ok(Box::new(InputTable(
+        (0..rows).map(|k| w.at(k).to_vec()).collect(),
+    )))
+}
+
+pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
+    if !(args.uncertainty >= 0.0 && args.uncertainty < 1.0) {
+        return Err(CliError::Argument("--uncertainty must be in [0, 1)".into()));
+    }
+    let model = load_model(&args.file)?;
+    let plant = Plant::new(model);
+    let steps = args.weather.steps(&plant.model)?;
+    let weather = args.weather.load(&plant.model, steps, 0)?;
+    let mut controller = parse_inputs(args.inputs.as_deref(), &plant)?;
+    create_dir(&args.out)?;
+    let config = SeasonConfig {
+        steps,
+        enforce_limits: !args.no_rate_limit,
+        uncertainty: (args.uncertainty > 0.0).then_some(UncertaintyDraw {
+            delta: args.uncertainty,
+            seed: args.seed,
+        }),
+    };
+    let mut writer = TrajectoryWriter::create(&args.out, &plant, steps)?;
+    let result = run_season(&plant, &weather, controller.as_mut(), &config, &mut writer);
+    writer.finish()?;
+    let result = result?;
+    let m = &result.metrics;
+    println!(
+        "{} steps ({:.1} days) of {} on {}",
+        m.steps,
+        m.steps as f64 * plant.model.sample_period / 86400.0,
+        controller.name(),
+        args.weather.describe()
+    );
+    print_metrics(m);
+    write_summary(
+        &args.out,
+        &json!({
+            "command": std::env::args().collect::<Vec<_>>(),
+            "model": args.file.display().to_string(),
+            "model_sha256": model_hash(&plant),
+            "weather": args.weather.describe(),
+            "controller": controller.name(),
+            "uncertainty": args.uncertainty,
+            "seed": args.seed,
+            "metrics": m,
+        }),
+    )?;
+    plot_trajectory(
+        &args.out,
+        &plant,
+        &writer.logs,
+        &format!("{} — {}", plant.model.name, controller.name()),
+    )?;
+    println!(
+        "wrote {}/trajectory.csv, summary.json, trajectory.png",
+        args.out.display()
+    );
+    Ok(())
+}
+
+/// Prints the season figures.
+pub fn print_metrics(m: &crate::sim::metrics::Metrics) {
+    println!("  EPI               {:+.4} EUR/m2", m.epi);
+    println!("  penalties         {:.4} EUR/m2", m.total_penalty);
+    for b in &m.bands {
+        println!(
+            "    {:<14} {:.4} EUR/m2, {:.1} h outside",
+            b.output, b.penalty, b.hours_outside
+        );
+    }
+    println!("  cumulative reward {:+.4} EUR/m2", m.cumulative_reward);
+}

@@ -1,0 +1,98 @@
+//! Weather and season-length options shared by every command that runs a season.
+
+use crate::cli::CliError;
+use crate::lang::Model;
+use crate::sim::weather::{builtin_season, load_csv, load_knmi, Weather, WeatherFrame};
+use clap::Args;
+use std::path::PathBuf;
+
+#[derive(Debug, Clone, Args)]
+pub struct WeatherArgs {
+    /// Weather CSV with a header of named columns (e.g. ../shared/data/venlo2014_30min_model_units.csv).
+    /// Without --weather or --knmi, ghm's built-in Dutch late-winter season is used.
+    #[arg(long, value_name = "CSV", conflicts_with = "knmi")]
+    pub weather: Option<PathBuf>,
+    /// First data row of the weather file used as step 0 (Venlo: 1394 = 2014-02-08 01:00).
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub start_row: usize,
+    /// KNMI hourly station file (uurgegevens), converted and interpolated to the model's period.
+    #[arg(long, value_name = "FILE")]
+    pub knmi: Option<PathBuf>,
+    /// Outdoor CO₂ assumed with KNMI data (which has none), in ppm.
+    #[arg(long, value_name = "PPM", default_value_t = 420.0)]
+    pub knmi_co2: f64,
+    /// Seed of the built-in weather generator.
+    #[arg(long, value_name = "S", default_value_t = 2014)]
+    pub weather_seed: u64,
+    /// Season length in days.
+    #[arg(long, value_name = "D", conflicts_with = "steps")]
+    pub days: Option<f64>,
+    /// Season length in steps (default: 40 days).
+    #[arg(long, value_name = "N")]
+    pub steps: Option<usize>,
+}
+
+impl WeatherArgs {
+    /// Number of steps of the season.
+    pub fn steps(&self, model: &Model) -> Result<usize, CliError> {
+        let per_day = 86400.0 / model.sample_period;
+        let steps = match (self.steps, self.days) {
+            (Some(n), _) => n as f64,
+            (None, Some(d)) => (d * per_day).round(),
+            (None, None) => (40.0 * per_day).round(),
+        };
+        if !(steps >= 1.0 && steps.is_finite()) {
+            return Err(CliError::Argument(
+                "the season must have at least one step (check --days / --steps)".into(),
+            ));
+        }
+        Ok(steps as usize)
+    }
+
+    /// The weather for `steps` steps plus `extra` steps of forecast.
+    pub fn load(&self, model: &Model, steps: usize, extra: usize) -> Result<Weather, CliError> {
+        let wanted: Vec<String> = model
+            .disturbances
+            .iter()
+            .map(|d| d.column.clone().unwrap_or_else(|| d.info.name.clone()))
+            .collect();
+        let rows = steps + extra;
+        let frame: WeatherFrame = match (&self.weather, &self.knmi) {
+            (Some(path), _) => load_csv(path, &wanted, model.sample_period)?,
+            (None, Some(path)) => load_knmi(path, model.sample_period, self.knmi_co2)?,
+            (None, None) => {
+                if model.disturbances.iter().all(|d| d.value.is_some()) {
+                    let names = model
+                        .disturbances
+                        .iter()
+                        .map(|d| d.info.name.clone())
+                        .collect();
+                    let values: Vec<f64> =
+                        model.disturbances.iter().filter_map(|d| d.value).collect();
+                    return Ok(Weather::constant(names, &values, rows, model.sample_period));
+                }
+                builtin_season(
+                    self.start_row + rows,
+                    model.sample_period,
+                    self.weather_seed,
+                )
+            }
+        };
+        if (frame.period_s - model.sample_period).abs() > 1e-9 {
+            return Err(CliError::Argument(format!(
+                "the weather source has a period of {} s but the model steps every {} s",
+                frame.period_s, model.sample_period
+            )));
+        }
+        Ok(frame.select(&wanted, self.start_row, rows)?)
+    }
+
+    /// A one-line description of the weather source for summaries.
+    pub fn describe(&self) -> String {
+        match (&self.weather, &self.knmi) {
+            (Some(p), _) => format!("csv {} from row {}", p.display(), self.start_row),
+            (None, Some(p)) => format!("knmi {} from row {}", p.display(), self.start_row),
+            (None, None) => format!("built-in season, seed {}", self.weather_seed),
+        }
+    }
+}

@@ -1,0 +1,263 @@
+//! The one table of primitive operations.
+//!
+//! Each [`Op`] defines its value once, generically over any dual number type; every
+//! derivative (forward Jacobians, reverse adjoints, Hessians) comes from evaluating that
+//! same definition on dual numbers. Only the partials of the four linear-algebraic ops are
+//! spelled out, for speed in the reverse sweep, and a test checks them against the duals.
+
+use num_dual::{Dual, DualNum};
+
+/// The scalar type the tape evaluates over: `f64` or any `num_dual` number over `f64`.
+pub trait Real: DualNum<Primitive = f64> + Copy {}
+impl<T: DualNum<Primitive = f64> + Copy> Real for T {}
+
+/// A primitive operation of the expression graph.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Op {
+    Neg,
+    Exp,
+    Log,
+    Sqrt,
+    Abs,
+    Tanh,
+    Sin,
+    Cos,
+    Add,
+    Sub,
+    Mul,
+    Div,
+    /// `a^b` for a general exponent `b`, as `exp(b ln a)`.
+    Pow,
+    /// `a^n` for a constant integer `n`.
+    Powi(i32),
+    /// `a^e` for a constant real `e` (stored as its bit pattern so ops stay hashable).
+    Powf(u64),
+    Min,
+    Max,
+    Lt,
+    Le,
+    Gt,
+    Ge,
+    /// `if(c, a, b)`: `a` where `c > 0.5`, else `b`.
+    Select,
+}
+
+impl Op {
+    pub fn arity(self) -> usize {
+        use Op::*;
+        match self {
+            Neg | Exp | Log | Sqrt | Abs | Tanh | Sin | Cos | Powi(_) | Powf(_) => 1,
+            Select => 3,
+            _ => 2,
+        }
+    }
+
+    /// The function name used in the language, for those ops called as functions.
+    pub fn from_function(name: &str) -> Option<Op> {
+        Some(match name {
+            "exp" => Op::Exp,
+            "log" | "ln" => Op::Log,
+            "sqrt" => Op::Sqrt,
+            "abs" => Op::Abs,
+            "tanh" => Op::Tanh,
+            "sin" => Op::Sin,
+            "cos" => Op::Cos,
+            "min" => Op::Min,
+            "max" => Op::Max,
+            "pow" => Op::Pow,
+            "if" => Op::Select,
+            _ => return None,
+        })
+    }
+
+    /// Names of the functions the language offers (for messages).
+    pub const FUNCTIONS: &'static [&'static str] = &[
+        "exp", "log", "sqrt", "abs", "tanh", "sin", "cos", "min", "max", "pow", "if",
+    ];
+
+    pub fn is_commutative(self) -> bool {
+        matches!(self, Op::Add | Op::Mul | Op::Min | Op::Max)
+    }
+
+    /// True for ops whose value is an affine function of their arguments (no Hessian
+    /// contribution), used by the sparsity analysis.
+    pub fn is_linear(self) -> bool {
+        matches!(self, Op::Neg | Op::Add | Op::Sub)
+    }
+
+    /// True for ops whose derivative is zero almost everywhere.
+    pub fn is_piecewise_constant(self) -> bool {
+        matches!(self, Op::Lt | Op::Le | Op::Gt | Op::Ge)
+    }
+
+    /// The value of the op. `b` and `c` are ignored by ops of lower arity.
+    #[inline]
+    pub fn apply<T: DualNum<Primitive = f64>>(self, a: T, b: T, c: T) -> T {
+        use Op::*;
+        let truth = |t: bool| if t { T::one() } else { T::zero() };
+        match self {
+            Neg => -a,
+            Exp => a.exp(),
+            Log => a.ln(),
+            Sqrt => a.sqrt(),
+            Abs => {
+                if a.re() < 0.0 {
+                    -a
+                } else {
+                    a
+                }
+            }
+            Tanh => a.tanh(),
+            Sin => a.sin(),
+            Cos => a.cos(),
+            Add => a + b,
+            Sub => a - b,
+            Mul => a * b,
+            Div => a / b,
+            Pow => (b * a.ln()).exp(),
+            Powi(n) => a.powi(n),
+            Powf(bits) => a.powf(f64::from_bits(bits)),
+            Min => {
+                if b.re() < a.re() {
+                    b
+                } else {
+                    a
+                }
+            }
+            Max => {
+                if b.re() > a.re() {
+                    b
+                } else {
+                    a
+                }
+            }
+            Lt => truth(a.re() < b.re()),
+            Le => truth(a.re() <= b.re()),
+            Gt => truth(a.re() > b.re()),
+            Ge => truth(a.re() >= b.re()),
+            Select => {
+                if a.re() > 0.5 {
+                    b
+                } else {
+                    c
+                }
+            }
+        }
+    }
+
+    /// The value on plain floats.
+    #[inline]
+    pub fn apply_f64(self, a: f64, b: f64, c: f64) -> f64 {
+        self.apply(a, b, c)
+    }
+
+    /// Partial derivatives of the op with respect to each argument, at `(a, b, c)`.
+    /// Linear-algebraic ops are written out; all others come from evaluating [`Op::apply`]
+    /// on `Dual<T>`, so there is one definition of every function.
+    #[inline]
+    pub fn partials<T: Real>(self, a: T, b: T, c: T) -> [T; 3] {
+        let zero = T::zero();
+        let one = T::one();
+        match self {
+            Op::Neg => [-one, zero, zero],
+            Op::Add => [one, one, zero],
+            Op::Sub => [one, -one, zero],
+            Op::Mul => [b, a, zero],
+            _ => self.partials_from_duals(a, b, c),
+        }
+    }
+
+    /// Partials obtained by seeding one argument at a time with a nested dual number.
+    pub fn partials_from_duals<T: Real>(self, a: T, b: T, c: T) -> [T; 3] {
+        let mut out = [T::zero(); 3];
+        let args = [a, b, c];
+        for (i, slot) in out.iter_mut().enumerate().take(self.arity()) {
+            let seeded: [Dual<T>; 3] = std::array::from_fn(|j| {
+                if i == j {
+                    Dual::new(args[j], T::one())
+                } else {
+                    Dual::from_re(args[j])
+                }
+            });
+            *slot = self.apply(seeded[0], seeded[1], seeded[2]).eps;
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use num_dual::Dual64;
+
+    const ALL: &[Op] = &[
+        Op::Neg,
+        Op::Exp,
+        Op::Log,
+        Op::Sqrt,
+        Op::Abs,
+        Op::Tanh,
+        Op::Sin,
+        Op::Cos,
+        Op::Add,
+        Op::Sub,
+        Op::Mul,
+        Op::Div,
+        Op::Pow,
+        Op::Powi(3),
+        Op::Powi(-2),
+        Op::Powf(0.5f64.to_bits()),
+        Op::Min,
+        Op::Max,
+        Op::Lt,
+        Op::Le,
+        Op::Gt,
+        Op::Ge,
+        Op::Select,
+    ];
+
+    #[test]
+    fn written_out_partials_match_the_dual_partials() {
+        for &op in ALL {
+            let (a, b, c) = (
+                Dual64::new(1.3, 0.7),
+                Dual64::new(0.4, -0.2),
+                Dual64::new(2.0, 1.0),
+            );
+            let fast = op.partials(a, b, c);
+            let slow = op.partials_from_duals(a, b, c);
+            for i in 0..3 {
+                assert!((fast[i].re - slow[i].re).abs() < 1e-14, "{op:?}");
+                assert!((fast[i].eps - slow[i].eps).abs() < 1e-14, "{op:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn partials_agree_with_central_differences() {
+        for &op in ALL {
+            let args = [0.8, 1.7, 0.3];
+            let p = op.partials(args[0], args[1], args[2]);
+            for i in 0..op.arity() {
+                let h = 1e-6;
+                let mut up = args;
+                let mut dn = args;
+                up[i] += h;
+                dn[i] -= h;
+                let fd = (op.apply_f64(up[0], up[1], up[2]) - op.apply_f64(dn[0], dn[1], dn[2]))
+                    / (2.0 * h);
+                assert!(
+                    (fd - p[i]).abs() < 1e-6 * (1.0 + fd.abs()),
+                    "{op:?} arg {i}: {fd} vs {}",
+                    p[i]
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn square_of_zero_has_finite_derivative() {
+        let d = Op::Powi(2).partials(0.0, 0.0, 0.0);
+        assert_eq!(d[0], 0.0);
+    }
+}

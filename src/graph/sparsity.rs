@@ -1,0 +1,131 @@
+//! Sparsity of a tape's derivatives, read off the graph: which chosen inputs each output
+//! depends on (Jacobian pattern) and which pairs of inputs meet in a nonlinear operation
+//! (Hessian pattern of any weighted sum of the outputs).
+
+use super::{Op, Tape};
+
+/// Structural non-zeros of the Jacobian and of the Hessian of a weighted output sum.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sparsity {
+    /// Number of chosen inputs (columns).
+    pub n: usize,
+    /// `jacobian[row]` = the columns output `row` depends on, sorted.
+    pub jacobian: Vec<Vec<usize>>,
+    /// Lower-triangle pairs `(i, j)`, `i >= j`, sorted.
+    pub hessian: Vec<(usize, usize)>,
+}
+
+type Bits = Vec<u64>;
+
+fn union(a: &Bits, b: &Bits) -> Bits {
+    a.iter().zip(b).map(|(x, y)| x | y).collect()
+}
+
+fn members(b: &Bits) -> Vec<usize> {
+    let mut out = Vec::new();
+    for (w, &word) in b.iter().enumerate() {
+        let mut m = word;
+        while m != 0 {
+            let t = m.trailing_zeros() as usize;
+            out.push(w * 64 + t);
+            m &= m - 1;
+        }
+    }
+    out
+}
+
+impl Sparsity {
+    /// The patterns of `tape` with respect to inputs `wrt`.
+    pub fn of(tape: &Tape, wrt: &[usize]) -> Sparsity {
+        let n = wrt.len();
+        let words = n.div_ceil(64).max(1);
+        let empty: Bits = vec![0; words];
+        let mut deps: Vec<Bits> = vec![empty.clone(); tape.n_slots];
+        for (col, &i) in wrt.iter().enumerate() {
+            deps[i][col / 64] |= 1 << (col % 64);
+        }
+        let mut pairs = vec![false; n * n];
+        let mut mark = |a: &Bits, b: &Bits| {
+            for i in members(a) {
+                for j in members(b) {
+                    let (hi, lo) = if i >= j { (i, j) } else { (j, i) };
+                    pairs[hi * n + lo] = true;
+                }
+            }
+        };
+        for ins in &tape.instrs {
+            let [a, b, c] = ins.args.map(|s| s as usize);
+            let d = match ins.op {
+                op if op.is_piecewise_constant() => empty.clone(),
+                Op::Select => union(&deps[b], &deps[c]),
+                op if op.is_linear() || matches!(op, Op::Abs | Op::Min | Op::Max) => {
+                    if op.arity() == 1 {
+                        deps[a].clone()
+                    } else {
+                        union(&deps[a], &deps[b])
+                    }
+                }
+                Op::Mul => {
+                    mark(&deps[a], &deps[b]);
+                    union(&deps[a], &deps[b])
+                }
+                Op::Div => {
+                    mark(&deps[a], &deps[b]);
+                    mark(&deps[b], &deps[b]);
+                    union(&deps[a], &deps[b])
+                }
+                op if op.arity() == 1 => {
+                    mark(&deps[a], &deps[a]);
+                    deps[a].clone()
+                }
+                _ => {
+                    let all = union(&deps[a], &deps[b]);
+                    mark(&all, &all);
+                    all
+                }
+            };
+            deps[ins.out as usize] = d;
+        }
+        let jacobian = tape
+            .outputs
+            .iter()
+            .map(|&s| members(&deps[s as usize]))
+            .collect();
+        let mut hessian = Vec::new();
+        for i in 0..n {
+            for j in 0..=i {
+                if pairs[i * n + j] {
+                    hessian.push((i, j));
+                }
+            }
+        }
+        Sparsity {
+            n,
+            jacobian,
+            hessian,
+        }
+    }
+
+    pub fn jacobian_nnz(&self) -> usize {
+        self.jacobian.iter().map(Vec::len).sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::graph::Graph;
+
+    #[test]
+    fn linear_terms_have_no_hessian_entries() {
+        let mut g = Graph::new();
+        let (x, y, z) = (g.var(0), g.var(1), g.var(2));
+        let xy = g.mul(x, y);
+        let f = g.add(xy, z); // xy + z
+        let e = g.apply(Op::Exp, &[z]);
+        let tape = g.compile(&[f, e], 3);
+        let s = Sparsity::of(&tape, &[0, 1, 2]);
+        assert_eq!(s.jacobian, vec![vec![0, 1, 2], vec![2]]);
+        assert_eq!(s.hessian, vec![(1, 0), (2, 2)]);
+    }
+}

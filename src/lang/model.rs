@@ -1,0 +1,202 @@
+//! The checked model: what a `.ghm` file means once names are resolved, overrides applied
+//! and expressions lowered into one [`Graph`].
+//!
+//! Graph variables follow one fixed layout (see [`Layout`]):
+//! `[x (states), u (inputs), d (disturbances), p (parameters), x⁺ (states after the step)]`.
+
+use crate::graph::{Graph, NodeId};
+use crate::lang::ast::{ParamKind, TermKind};
+use crate::lang::diagnostic::Diagnostic;
+use crate::lang::source::SourceMap;
+
+/// Unit, description and source of a declaration, for people.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Info {
+    pub name: String,
+    pub unit: String,
+    pub description: String,
+    pub source: String,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct StateDecl {
+    pub info: Info,
+    pub initial: f64,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct InputDecl {
+    pub info: Info,
+    pub lower: f64,
+    pub upper: f64,
+    /// Largest change per step, if rate-limited.
+    pub rate: Option<f64>,
+    /// The input applied before the first step.
+    pub start: f64,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct DisturbanceDecl {
+    pub info: Info,
+    /// Column name in weather files.
+    pub column: Option<String>,
+    /// Constant value used when no weather source provides it.
+    pub value: Option<f64>,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParamDecl {
+    pub info: Info,
+    pub value: f64,
+    pub kind: ParamKind,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct OutputDecl {
+    pub info: Info,
+    /// y = g(x, u, d, p).
+    pub node: NodeId,
+}
+
+/// A stage or terminal term of the objective (as reward: costs are stored negated).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TermDecl {
+    pub info: Info,
+    pub kind: TermKind,
+    /// The term's contribution to the reward, over `(x, u, d, p, x⁺)` (terminal: over `x, p`).
+    pub node: NodeId,
+}
+
+/// A soft band on an output, penalised linearly outside `[lower, upper]`, evaluated on the
+/// output after the step. The optimiser may plan with the tighter `plan_*` bounds.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SoftBand {
+    pub output: usize,
+    pub lower: f64,
+    pub upper: f64,
+    pub weight_below: f64,
+    pub weight_above: f64,
+    pub plan_lower: f64,
+    pub plan_upper: f64,
+    pub description: String,
+}
+
+/// How the integrator discretises `ẋ = f` over one sample period.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Integrator {
+    Rk4,
+    Euler,
+}
+
+/// When parametric uncertainty redraws parameters.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Redraw {
+    Season,
+    Step,
+}
+
+/// Parametric uncertainty rule: p̂ ~ U(p(1 − s·δ), p(1 + s·δ)) for the parameters in scope.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Uncertainty {
+    pub redraw: Redraw,
+    /// s: the half-width as a multiple of δ (1 for the paper, 0.5 for the thesis code).
+    pub spread: f64,
+    /// Perturb every `param` (true) or only those marked `uncertain` (false).
+    pub all_params: bool,
+}
+
+impl Default for Uncertainty {
+    fn default() -> Self {
+        Uncertainty {
+            redraw: Redraw::Season,
+            spread: 1.0,
+            all_params: false,
+        }
+    }
+}
+
+/// Offsets of each variable group in the graph's variable numbering.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Layout {
+    pub nx: usize,
+    pub nu: usize,
+    pub nd: usize,
+    pub np: usize,
+}
+
+impl Layout {
+    pub fn x(&self, i: usize) -> usize {
+        i
+    }
+    pub fn u(&self, i: usize) -> usize {
+        self.nx + i
+    }
+    pub fn d(&self, i: usize) -> usize {
+        self.nx + self.nu + i
+    }
+    pub fn p(&self, i: usize) -> usize {
+        self.nx + self.nu + self.nd + i
+    }
+    pub fn x_next(&self, i: usize) -> usize {
+        self.nx + self.nu + self.nd + self.np + i
+    }
+    /// Variables of `(x, u, d, p)`.
+    pub fn n_base(&self) -> usize {
+        self.nx + self.nu + self.nd + self.np
+    }
+    /// All variables, including `x⁺`.
+    pub fn n_all(&self) -> usize {
+        self.n_base() + self.nx
+    }
+}
+
+/// A checked `.ghm` model.
+#[derive(Debug, Clone)]
+pub struct Model {
+    pub name: String,
+    pub description: String,
+    pub sources: SourceMap,
+    pub graph: Graph,
+    pub states: Vec<StateDecl>,
+    pub inputs: Vec<InputDecl>,
+    pub disturbances: Vec<DisturbanceDecl>,
+    pub params: Vec<ParamDecl>,
+    /// ẋᵢ = f_i(x, u, d, p), one per state.
+    pub derivatives: Vec<NodeId>,
+    pub outputs: Vec<OutputDecl>,
+    pub sample_period: f64,
+    pub integrator: Integrator,
+    pub substeps: usize,
+    pub terms: Vec<TermDecl>,
+    pub soft: Vec<SoftBand>,
+    pub uncertainty: Uncertainty,
+    /// Warnings found while checking (errors stop checking instead).
+    pub warnings: Vec<Diagnostic>,
+}
+
+impl Model {
+    pub fn layout(&self) -> Layout {
+        Layout {
+            nx: self.states.len(),
+            nu: self.inputs.len(),
+            nd: self.disturbances.len(),
+            np: self.params.len(),
+        }
+    }
+
+    pub fn nominal_params(&self) -> Vec<f64> {
+        self.params.iter().map(|p| p.value).collect()
+    }
+
+    pub fn initial_state(&self) -> Vec<f64> {
+        self.states.iter().map(|s| s.initial).collect()
+    }
+
+    pub fn start_input(&self) -> Vec<f64> {
+        self.inputs.iter().map(|u| u.start).collect()
+    }
+
+    pub fn output_index(&self, name: &str) -> Option<usize> {
+        self.outputs.iter().position(|o| o.info.name == name)
+    }
+}

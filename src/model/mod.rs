@@ -1,0 +1,232 @@
+//! The plant: a checked model turned into the discrete-time functions a controller and a
+//! simulator need, each compiled to a tape with exact derivatives.
+//!
+//! * `step`: `(x, u, d, p) → (x⁺, stage terms, y(x⁺))`, the integrator (RK4 or Euler with
+//!   the declared sub-steps) unrolled into the graph, so that derivatives of the discrete
+//!   step are exact, not derivatives of an approximation;
+//! * `output`: `(x, u, d, p) → y(x)`.
+//!
+//! Architecture invariant: `model` knows no solver and no controller. It only reads the
+//! language's [`Model`] and the graph.
+
+mod penalty;
+pub mod verify;
+
+pub use penalty::{band_penalty, StagePenalty};
+
+use crate::graph::{Graph, NodeId, Tape, Workspace};
+use crate::lang::ast::TermKind;
+use crate::lang::model::{Integrator, Layout, Model};
+
+/// Builds the discrete step `x⁺ = F(x, u, d, p)` as graph nodes over the base variables.
+pub fn discretize(graph: &mut Graph, model: &Model) -> Vec<NodeId> {
+    let layout = model.layout();
+    let nx = layout.nx;
+    let h = model.sample_period / model.substeps as f64;
+    let identity: Vec<NodeId> = (0..layout.n_all()).map(|i| graph.var(i)).collect();
+    let f_at = |graph: &mut Graph, x: &[NodeId]| -> Vec<NodeId> {
+        let mut repl = identity.clone();
+        repl[..nx].copy_from_slice(x);
+        graph.substitute(&model.derivatives, &repl)
+    };
+    let axpy = |graph: &mut Graph, x: &[NodeId], a: f64, k: &[NodeId]| -> Vec<NodeId> {
+        x.iter()
+            .zip(k)
+            .map(|(&xi, &ki)| {
+                let s = graph.scale(a, ki);
+                graph.add(xi, s)
+            })
+            .collect()
+    };
+    let mut x: Vec<NodeId> = identity[..nx].to_vec();
+    for _ in 0..model.substeps {
+        x = match model.integrator {
+            Integrator::Euler => {
+                let k1 = f_at(graph, &x);
+                axpy(graph, &x, h, &k1)
+            }
+            Integrator::Rk4 => {
+                let k1 = f_at(graph, &x);
+                let x2 = axpy(graph, &x, h / 2.0, &k1);
+                let k2 = f_at(graph, &x2);
+                let x3 = axpy(graph, &x, h / 2.0, &k2);
+                let k3 = f_at(graph, &x3);
+                let x4 = axpy(graph, &x, h, &k3);
+                let k4 = f_at(graph, &x4);
+                (0..nx)
+                    .map(|i| {
+                        let k23 = graph.add(k2[i], k3[i]);
+                        let k23 = graph.scale(2.0, k23);
+                        let s = graph.add(k1[i], k23);
+                        let s = graph.add(s, k4[i]);
+                        let inc = graph.scale(h / 6.0, s);
+                        graph.add(x[i], inc)
+                    })
+                    .collect()
+            }
+        };
+    }
+    x
+}
+
+/// A model ready to be stepped, with compiled tapes.
+#[derive(Debug, Clone)]
+pub struct Plant {
+    pub model: Model,
+    pub layout: Layout,
+    /// The graph holding every expression below (the model's graph, extended).
+    pub graph: Graph,
+    /// `x⁺` nodes over `(x, u, d, p)`.
+    pub next_state: Vec<NodeId>,
+    /// Stage reward terms (rewards positive, costs negated) over `(x, u, d, p)`, `x⁺` substituted.
+    pub stage_terms: Vec<NodeId>,
+    /// Outputs at `x⁺` over `(x, u, d, p)`.
+    pub next_outputs: Vec<NodeId>,
+    /// Indices into `model.terms` of the stage terms.
+    pub stage_term_index: Vec<usize>,
+    step: Tape,
+    output: Tape,
+}
+
+/// One step's results.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StepOutcome {
+    pub next_state: Vec<f64>,
+    /// Each stage term's reward contribution (costs negative), in `Plant::stage_term_index` order.
+    pub terms: Vec<f64>,
+    pub next_outputs: Vec<f64>,
+}
+
+impl StepOutcome {
+    /// The economic reward of the step: the sum of the stage terms.
+    pub fn economic(&self) -> f64 {
+        self.terms.iter().sum()
+    }
+}
+
+/// Reusable buffers for [`Plant::step_into`].
+#[derive(Debug, Clone)]
+pub struct StepWorkspace {
+    ws: Workspace<f64>,
+    inputs: Vec<f64>,
+    outputs: Vec<f64>,
+}
+
+impl Plant {
+    pub fn new(model: Model) -> Plant {
+        let layout = model.layout();
+        let mut graph = model.graph.clone();
+        let next_state = discretize(&mut graph, &model);
+        let mut repl: Vec<NodeId> = (0..layout.n_all()).map(|i| graph.var(i)).collect();
+        for (i, &n) in next_state.iter().enumerate() {
+            repl[layout.x_next(i)] = n;
+        }
+        let stage_term_index: Vec<usize> = model
+            .terms
+            .iter()
+            .enumerate()
+            .filter(|(_, t)| t.kind != TermKind::Terminal)
+            .map(|(i, _)| i)
+            .collect();
+        let raw_terms: Vec<NodeId> = stage_term_index
+            .iter()
+            .map(|&i| model.terms[i].node)
+            .collect();
+        let stage_terms = graph.substitute(&raw_terms, &repl);
+        let output_nodes: Vec<NodeId> = model.outputs.iter().map(|o| o.node).collect();
+        let mut x_to_next = repl.clone();
+        x_to_next[..layout.nx].copy_from_slice(&next_state);
+        let next_outputs = graph.substitute(&output_nodes, &x_to_next);
+        let mut all = next_state.clone();
+        all.extend(&stage_terms);
+        all.extend(&next_outputs);
+        let step = graph.compile(&all, layout.n_base());
+        let output = graph.compile(&output_nodes, layout.n_base());
+        Plant {
+            model,
+            layout,
+            graph,
+            next_state,
+            stage_terms,
+            next_outputs,
+            stage_term_index,
+            step,
+            output,
+        }
+    }
+
+    /// The step tape: inputs `(x, u, d, p)`, outputs `(x⁺, stage terms, y(x⁺))`.
+    pub fn step_tape(&self) -> &Tape {
+        &self.step
+    }
+
+    pub fn workspace(&self) -> StepWorkspace {
+        StepWorkspace {
+            ws: self.step.workspace(),
+            inputs: vec![0.0; self.layout.n_base()],
+            outputs: vec![0.0; self.step.n_outputs()],
+        }
+    }
+
+    fn pack(&self, buf: &mut [f64], x: &[f64], u: &[f64], d: &[f64], p: &[f64]) {
+        let l = &self.layout;
+        buf[..l.nx].copy_from_slice(x);
+        buf[l.u(0)..l.u(0) + l.nu].copy_from_slice(u);
+        buf[l.d(0)..l.d(0) + l.nd].copy_from_slice(d);
+        buf[l.p(0)..l.p(0) + l.np].copy_from_slice(p);
+    }
+
+    /// One step without allocation: fills `out` (resized on first use only).
+    pub fn step_into(
+        &self,
+        ws: &mut StepWorkspace,
+        x: &[f64],
+        u: &[f64],
+        d: &[f64],
+        p: &[f64],
+        out: &mut StepOutcome,
+    ) {
+        self.pack(&mut ws.inputs, x, u, d, p);
+        self.step.eval(&mut ws.ws, &ws.inputs, &mut ws.outputs);
+        let nx = self.layout.nx;
+        let nt = self.stage_terms.len();
+        out.next_state.clear();
+        out.next_state.extend_from_slice(&ws.outputs[..nx]);
+        out.terms.clear();
+        out.terms.extend_from_slice(&ws.outputs[nx..nx + nt]);
+        out.next_outputs.clear();
+        out.next_outputs.extend_from_slice(&ws.outputs[nx + nt..]);
+    }
+
+    /// One step (allocates the result).
+    pub fn step(&self, x: &[f64], u: &[f64], d: &[f64], p: &[f64]) -> StepOutcome {
+        let mut ws = self.workspace();
+        let mut out = StepOutcome {
+            next_state: Vec::new(),
+            terms: Vec::new(),
+            next_outputs: Vec::new(),
+        };
+        self.step_into(&mut ws, x, u, d, p, &mut out);
+        out
+    }
+
+    /// Outputs `y = g(x, u, d, p)`.
+    pub fn outputs(&self, x: &[f64], u: &[f64], d: &[f64], p: &[f64]) -> Vec<f64> {
+        let mut buf = vec![0.0; self.layout.n_base()];
+        self.pack(&mut buf, x, u, d, p);
+        self.output.eval_f64(&buf)
+    }
+
+    /// Penalties of the soft bands on the outputs `y` (scoring bounds).
+    pub fn penalties(&self, y: &[f64]) -> Vec<StagePenalty> {
+        self.model
+            .soft
+            .iter()
+            .map(|b| StagePenalty {
+                output: b.output,
+                value: band_penalty(b, y[b.output]),
+                outside: y[b.output] < b.lower || y[b.output] > b.upper,
+            })
+            .collect()
+    }
+}

@@ -1,0 +1,2 @@
+//! Reports: plots of seasons and learning curves.
+pub mod plot;

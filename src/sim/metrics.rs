@@ -1,0 +1,141 @@
+//! Season metrics as the paper reports them: EPI, cumulative reward, penalties per band,
+//! hours outside each band, and the controller's solve-time statistics.
+
+use crate::control::StepRecord;
+use crate::model::Plant;
+use serde::Serialize;
+
+/// One soft band's totals over a season.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct BandMetrics {
+    pub output: String,
+    pub penalty: f64,
+    pub hours_outside: f64,
+}
+
+/// Solve-time statistics of a controller over a season.
+#[derive(Debug, Clone, Serialize, PartialEq, Default)]
+pub struct SolveStats {
+    pub median_ms: f64,
+    pub p95_ms: f64,
+    pub max_ms: f64,
+    pub mean_iterations: f64,
+    pub failed_solves: usize,
+    pub fallbacks: usize,
+}
+
+/// The figures of one season.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Metrics {
+    pub steps: usize,
+    /// Economic performance indicator: Σ economic stage reward (€ m⁻²).
+    pub epi: f64,
+    pub total_penalty: f64,
+    /// EPI − Σ penalties.
+    pub cumulative_reward: f64,
+    pub bands: Vec<BandMetrics>,
+    pub solve: SolveStats,
+}
+
+/// Accumulates [`Metrics`] step by step.
+#[derive(Debug, Clone)]
+pub struct MetricsBuilder {
+    period_h: f64,
+    bands: Vec<(usize, f64, f64, String)>,
+    band_lo_hi: Vec<(f64, f64)>,
+    epi: f64,
+    steps: usize,
+    times_ms: Vec<f64>,
+    iterations: usize,
+    failed: usize,
+    fallbacks: usize,
+}
+
+/// Solver statuses that count as success.
+pub fn status_is_success(status: &str) -> bool {
+    status.is_empty() || status == "optimal" || status == "acceptable"
+}
+
+fn percentile(sorted: &[f64], q: f64) -> f64 {
+    if sorted.is_empty() {
+        return 0.0;
+    }
+    let idx = ((sorted.len() - 1) as f64 * q).round() as usize;
+    sorted[idx.min(sorted.len() - 1)]
+}
+
+impl MetricsBuilder {
+    pub fn new(plant: &Plant) -> MetricsBuilder {
+        let m = &plant.model;
+        MetricsBuilder {
+            period_h: m.sample_period / 3600.0,
+            bands: m
+                .soft
+                .iter()
+                .map(|b| (b.output, 0.0, 0.0, m.outputs[b.output].info.name.clone()))
+                .collect(),
+            band_lo_hi: m.soft.iter().map(|b| (b.lower, b.upper)).collect(),
+            epi: 0.0,
+            steps: 0,
+            times_ms: Vec::new(),
+            iterations: 0,
+            failed: 0,
+            fallbacks: 0,
+        }
+    }
+
+    pub fn add(
+        &mut self,
+        economic: f64,
+        penalties: &[f64],
+        next_outputs: &[f64],
+        record: &StepRecord,
+    ) {
+        self.epi += economic;
+        self.steps += 1;
+        for (i, b) in self.bands.iter_mut().enumerate() {
+            b.1 += penalties[i];
+            let y = next_outputs[b.0];
+            let (lo, hi) = self.band_lo_hi[i];
+            if y < lo || y > hi {
+                b.2 += self.period_h;
+            }
+        }
+        self.times_ms.push(record.solve_time_s * 1e3);
+        self.iterations += record.iterations;
+        if !status_is_success(&record.status) {
+            self.failed += 1;
+        }
+        if record.fallback.is_some() {
+            self.fallbacks += 1;
+        }
+    }
+
+    pub fn finish(mut self) -> Metrics {
+        let total_penalty: f64 = self.bands.iter().map(|b| b.1).sum();
+        self.times_ms.sort_by(f64::total_cmp);
+        Metrics {
+            steps: self.steps,
+            epi: self.epi,
+            total_penalty,
+            cumulative_reward: self.epi - total_penalty,
+            bands: self
+                .bands
+                .into_iter()
+                .map(|(_, penalty, hours, output)| BandMetrics {
+                    output,
+                    penalty,
+                    hours_outside: hours,
+                })
+                .collect(),
+            solve: SolveStats {
+                median_ms: percentile(&self.times_ms, 0.5),
+                p95_ms: percentile(&self.times_ms, 0.95),
+                max_ms: self.times_ms.last().copied().unwrap_or(0.0),
+                mean_iterations: self.iterations as f64 / self.steps.max(1) as f64,
+                failed_solves: self.failed,
+                fallbacks: self.fallbacks,
+            },
+        }
+    }
+}

@@ -1,0 +1,4 @@
+//! Simulation: weather sources, the season loop and its metrics.
+pub mod metrics;
+pub mod season;
+pub mod weather;

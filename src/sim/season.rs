@@ -1,0 +1,219 @@
+//! The season loop: runs a controller on the plant over the weather, enforcing input
+//! bounds and rate limits (unless told not to), drawing parametric uncertainty, and
+//! reporting every step to a sink as it happens (so a run stopped halfway keeps its rows).
+
+use crate::control::{Controller, Observation, StepRecord};
+use crate::lang::model::Redraw;
+use crate::model::{Plant, StepOutcome};
+use crate::sim::metrics::{Metrics, MetricsBuilder};
+use crate::sim::weather::Weather;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use thiserror::Error;
+
+#[derive(Debug, Error)]
+pub enum SimError {
+    #[error("the weather has {available} steps; the season needs {needed}")]
+    WeatherTooShort { available: usize, needed: usize },
+    #[error("the weather provides {given} disturbances; the model has {expected}")]
+    WeatherWidth { given: usize, expected: usize },
+    #[error("the controller returned {given} inputs; the model has {expected}")]
+    InputWidth { given: usize, expected: usize },
+    #[error("controller failed at step {step}: {source}")]
+    Controller {
+        step: usize,
+        source: crate::control::ControlError,
+    },
+    #[error("the state is not finite after step {step}: {state:?}")]
+    Diverged { step: usize, state: Vec<f64> },
+    #[error("writing the results failed: {0}")]
+    Sink(String),
+}
+
+/// Parametric uncertainty of a season: relative half-width δ and a seed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct UncertaintyDraw {
+    pub delta: f64,
+    pub seed: u64,
+}
+
+/// How a season is run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SeasonConfig {
+    pub steps: usize,
+    /// Clip the controller's input to the bounds and rate limits.
+    pub enforce_limits: bool,
+    pub uncertainty: Option<UncertaintyDraw>,
+}
+
+/// Everything about one step, as logged.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StepLog {
+    pub step: usize,
+    pub state: Vec<f64>,
+    pub outputs: Vec<f64>,
+    pub input: Vec<f64>,
+    pub disturbance: Vec<f64>,
+    /// Stage terms of the step (rewards positive, costs negative).
+    pub terms: Vec<f64>,
+    pub economic: f64,
+    /// One penalty per soft band.
+    pub penalties: Vec<f64>,
+    pub reward: f64,
+    pub cumulative_reward: f64,
+    pub record: StepRecord,
+}
+
+/// Receives each step as it is taken.
+pub trait StepSink {
+    fn step(&mut self, log: &StepLog) -> Result<(), String>;
+}
+
+impl<F: FnMut(&StepLog)> StepSink for F {
+    fn step(&mut self, log: &StepLog) -> Result<(), String> {
+        self(log);
+        Ok(())
+    }
+}
+
+/// The result of a season.
+#[derive(Debug, Clone)]
+pub struct SeasonResult {
+    pub metrics: Metrics,
+    pub final_state: Vec<f64>,
+}
+
+/// Draws p̂ under the model's uncertainty rule.
+pub fn draw_params(plant: &Plant, delta: f64, rng: &mut ChaCha8Rng) -> Vec<f64> {
+    let rule = plant.model.uncertainty;
+    plant
+        .model
+        .params
+        .iter()
+        .map(|p| {
+            let in_scope = rule.all_params || p.kind == crate::lang::ast::ParamKind::Uncertain;
+            if in_scope && delta > 0.0 {
+                let w = rule.spread * delta;
+                p.value * (1.0 + rng.random_range(-w..=w))
+            } else {
+                p.value
+            }
+        })
+        .collect()
+}
+
+/// Clips `u` to the bounds and to `|u − u_prev| ≤ rate`.
+pub fn apply_limits(plant: &Plant, previous: &[f64], u: &mut [f64]) {
+    for (i, decl) in plant.model.inputs.iter().enumerate() {
+        let mut v = u[i];
+        if let Some(r) = decl.rate {
+            v = v.clamp(previous[i] - r, previous[i] + r);
+        }
+        u[i] = v.clamp(decl.lower, decl.upper);
+    }
+}
+
+/// Runs one season from the model's initial state and start input.
+pub fn run_season(
+    plant: &Plant,
+    weather: &Weather,
+    controller: &mut dyn Controller,
+    config: &SeasonConfig,
+    sink: &mut dyn StepSink,
+) -> Result<SeasonResult, SimError> {
+    let l = plant.layout;
+    if weather.width() != l.nd {
+        return Err(SimError::WeatherWidth {
+            given: weather.width(),
+            expected: l.nd,
+        });
+    }
+    if weather.len() < config.steps {
+        return Err(SimError::WeatherTooShort {
+            available: weather.len(),
+            needed: config.steps,
+        });
+    }
+    let nominal = plant.model.nominal_params();
+    let mut rng = ChaCha8Rng::seed_from_u64(config.uncertainty.map_or(0, |u| u.seed));
+    let delta = config.uncertainty.map_or(0.0, |u| u.delta);
+    let mut params = if delta > 0.0 {
+        draw_params(plant, delta, &mut rng)
+    } else {
+        nominal.clone()
+    };
+    let mut x = plant.model.initial_state();
+    let mut u_prev = plant.model.start_input();
+    let mut ws = plant.workspace();
+    let mut out = StepOutcome {
+        next_state: Vec::new(),
+        terms: Vec::new(),
+        next_outputs: Vec::new(),
+    };
+    let mut metrics = MetricsBuilder::new(plant);
+    let mut cumulative = 0.0;
+    for k in 0..config.steps {
+        if k > 0 && delta > 0.0 && plant.model.uncertainty.redraw == Redraw::Step {
+            params = draw_params(plant, delta, &mut rng);
+        }
+        let d = weather.at(k);
+        let y = plant.outputs(&x, &u_prev, d, &params);
+        let forecast = weather.horizon(k, weather.len() - k).unwrap_or(&[]);
+        let obs = Observation {
+            step: k,
+            state: &x,
+            outputs: &y,
+            previous_input: &u_prev,
+            forecast,
+        };
+        let decision = controller
+            .decide(&obs)
+            .map_err(|source| SimError::Controller { step: k, source })?;
+        let mut u = decision.input;
+        if u.len() != l.nu {
+            return Err(SimError::InputWidth {
+                given: u.len(),
+                expected: l.nu,
+            });
+        }
+        if config.enforce_limits {
+            apply_limits(plant, &u_prev, &mut u);
+        }
+        plant.step_into(&mut ws, &x, &u, d, &params, &mut out);
+        if out.next_state.iter().any(|v| !v.is_finite()) {
+            return Err(SimError::Diverged {
+                step: k,
+                state: out.next_state.clone(),
+            });
+        }
+        let penalties: Vec<f64> = plant
+            .penalties(&out.next_outputs)
+            .iter()
+            .map(|p| p.value)
+            .collect();
+        let economic = out.economic();
+        let reward = economic - penalties.iter().sum::<f64>();
+        cumulative += reward;
+        metrics.add(economic, &penalties, &out.next_outputs, &decision.record);
+        let log = StepLog {
+            step: k,
+            state: x.clone(),
+            outputs: y,
+            input: u.clone(),
+            disturbance: d.to_vec(),
+            terms: out.terms.clone(),
+            economic,
+            penalties,
+            reward,
+            cumulative_reward: cumulative,
+            record: decision.record,
+        };
+        sink.step(&log).map_err(SimError::Sink)?;
+        x.clone_from(&out.next_state);
+        u_prev = u;
+    }
+    Ok(SeasonResult {
+        metrics: metrics.finish(),
+        final_state: x,
+    })
+}
