@@ -32,10 +32,13 @@ fn step(c: &mut Criterion) {
     c.bench_function("lettuce step: Jacobian wrt (x, u)", |b| {
         b.iter(|| der.jacobian(tape, black_box(&z)).jacobian[0])
     });
-    let weights: Vec<f64> = (0..tape.n_outputs()).map(|i| 0.5 + 0.1 * i as f64).collect();
-    c.bench_function("lettuce step: Hessian of weighted outputs wrt (x, u)", |b| {
-        b.iter(|| der.hessian(tape, black_box(&z), &weights).hessian[0])
-    });
+    let weights: Vec<f64> = (0..tape.n_outputs())
+        .map(|i| 0.5 + 0.1 * i as f64)
+        .collect();
+    c.bench_function(
+        "lettuce step: Hessian of weighted outputs wrt (x, u)",
+        |b| b.iter(|| der.hessian(tape, black_box(&z), &weights).hessian[0]),
+    );
 }
 
 criterion_group!(benches, step);

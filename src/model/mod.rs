@@ -160,6 +160,11 @@ impl Plant {
         &self.step
     }
 
+    /// The output tape: inputs `(x, u, d, p)`, outputs `y(x)`.
+    pub fn output_tape(&self) -> &Tape {
+        &self.output
+    }
+
     pub fn workspace(&self) -> StepWorkspace {
         StepWorkspace {
             ws: self.step.workspace(),
