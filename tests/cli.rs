@@ -1,0 +1,107 @@
+//! The `ghm` binary end to end: outputs written, clear errors for bad files and arguments.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+fn ghm(args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_ghm"))
+        .args(args)
+        .output()
+        .expect("run ghm");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("ghm-cli-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+#[test]
+fn check_prints_summary_and_verifies_derivatives() {
+    let (ok, out, err) = ghm(&[
+        "check",
+        "models/lettuce.ghm",
+        "--verify-derivatives",
+        "--points",
+        "3",
+    ]);
+    assert!(ok, "{err}");
+    assert!(out.contains("states       (4)"), "{out}");
+    assert!(out.contains("after sharing"));
+    assert!(out.contains("derivatives OK"));
+}
+
+#[test]
+fn simulate_writes_trajectory_summary_and_plot() {
+    let dir = temp_dir("sim");
+    let d = dir.to_str().expect("utf-8 temp path");
+    let (ok, out, err) = ghm(&[
+        "simulate",
+        "models/lettuce.ghm",
+        "--days",
+        "2",
+        "--inputs",
+        "const:0.6,1,40",
+        "--out",
+        d,
+    ]);
+    assert!(ok, "{err}");
+    assert!(out.contains("EPI"), "{out}");
+    let csv = std::fs::read_to_string(dir.join("trajectory.csv")).expect("trajectory.csv");
+    assert_eq!(csv.lines().count(), 1 + 96);
+    assert!(csv.starts_with("k,time_h,x_dry_weight"));
+    let summary: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.join("summary.json")).expect("summary.json"),
+    )
+    .expect("JSON");
+    assert_eq!(summary["metrics"]["steps"], 96);
+    assert_eq!(summary["model_sha256"].as_str().map(str::len), Some(64));
+    let png = std::fs::read(dir.join("trajectory.png")).expect("trajectory.png");
+    assert_eq!(&png[..4], b"\x89PNG");
+}
+
+#[test]
+fn bad_model_reports_location_and_fails() {
+    let dir = temp_dir("bad");
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let f = dir.join("bad.ghm");
+    std::fs::write(&f, "state x = 1\nder x = -y\nsample 1\n").expect("write");
+    let (ok, _, err) = ghm(&["check", f.to_str().expect("utf-8")]);
+    assert!(!ok);
+    assert!(err.contains("bad.ghm:2:10"), "{err}");
+    assert!(err.contains("unknown name `y`"), "{err}");
+    assert!(!err.contains("panicked"));
+}
+
+#[test]
+fn bad_arguments_and_files_give_messages_not_panics() {
+    let cases: &[&[&str]] = &[
+        &["check", "no/such/file.ghm"],
+        &["simulate", "models/lettuce.ghm", "--inputs", "const:1,2"],
+        &["simulate", "models/lettuce.ghm", "--inputs", "const:a,b,c"],
+        &["simulate", "models/lettuce.ghm", "--weather", "no/such.csv"],
+        &["simulate", "models/lettuce.ghm", "--knmi", "no/such.txt"],
+        &["simulate", "models/lettuce.ghm", "--steps", "0"],
+        &["simulate", "models/lettuce.ghm", "--uncertainty", "2"],
+        &[
+            "simulate",
+            "models/lettuce.ghm",
+            "--inputs",
+            "no/such-inputs.csv",
+        ],
+    ];
+    for args in cases {
+        let (ok, _, err) = ghm(args);
+        assert!(!ok, "{args:?} should fail");
+        assert!(
+            err.starts_with("error") || err.contains("error"),
+            "{args:?}: {err}"
+        );
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+    }
+}
