@@ -41,5 +41,41 @@ fn step(c: &mut Criterion) {
     );
 }
 
-criterion_group!(benches, step);
+/// One 1920-step (40-day) season with constant inputs on the built-in weather.
+fn season(c: &mut Criterion) {
+    use ghm::control::ConstantInput;
+    use ghm::sim::season::{run_season, SeasonConfig, StepLog};
+    let (plant, _) = lettuce();
+    let cols: Vec<String> = plant
+        .model
+        .disturbances
+        .iter()
+        .filter_map(|d| d.column.clone())
+        .collect();
+    let weather = ghm::sim::weather::builtin_season(1920, 1800.0, 1)
+        .select(&cols, 0, 1920)
+        .expect("built-in weather");
+    let config = SeasonConfig {
+        steps: 1920,
+        enforce_limits: true,
+        uncertainty: None,
+    };
+    c.bench_function("lettuce season: 1920 steps, constant input", |b| {
+        b.iter(|| {
+            let mut controller = ConstantInput(vec![0.6, 1.0, 40.0]);
+            run_season(
+                &plant,
+                &weather,
+                &mut controller,
+                &config,
+                &mut |_: &StepLog| {},
+            )
+            .expect("season")
+            .metrics
+            .epi
+        })
+    });
+}
+
+criterion_group!(benches, step, season);
 criterion_main!(benches);

@@ -146,7 +146,12 @@ pub(crate) fn reverse_sweep<T: Real>(
         // can carry non-zero second-order lanes.
         let g = adjoint[ins.out as usize];
         let [a, b, c] = ins.args;
-        let p = ins.op.partials(v[a as usize], v[b as usize], v[c as usize]);
+        let p = ins.op.partials(
+            v[a as usize],
+            v[b as usize],
+            v[c as usize],
+            v[ins.out as usize],
+        );
         let arity = ins.op.arity();
         adjoint[a as usize] += g * p[0];
         if arity > 1 {

@@ -2,8 +2,8 @@
 //!
 //! Each [`Op`] defines its value once, generically over any dual number type; every
 //! derivative (forward Jacobians, reverse adjoints, Hessians) comes from evaluating that
-//! same definition on dual numbers. Only the partials of the four linear-algebraic ops are
-//! spelled out, for speed in the reverse sweep, and a test checks them against the duals.
+//! same definition on dual numbers. A few partials are spelled out for speed in the reverse
+//! sweep (reusing the op's value where possible), and a test checks them against the duals.
 
 use num_dual::{Dual, DualNum};
 
@@ -151,11 +151,12 @@ impl Op {
         self.apply(a, b, c)
     }
 
-    /// Partial derivatives of the op with respect to each argument, at `(a, b, c)`.
-    /// Linear-algebraic ops are written out; all others come from evaluating [`Op::apply`]
-    /// on `Dual<T>`, so there is one definition of every function.
+    /// Partial derivatives of the op with respect to each argument, at `(a, b, c)` whose
+    /// value is `out`. The common smooth ops reuse `out` (e.g. `d exp(a)/da = out`); all
+    /// others come from evaluating [`Op::apply`] on `Dual<T>`, so there is one definition
+    /// of every function. A test checks the fast paths against the dual-number partials.
     #[inline]
-    pub fn partials<T: Real>(self, a: T, b: T, c: T) -> [T; 3] {
+    pub fn partials<T: Real>(self, a: T, b: T, c: T, out: T) -> [T; 3] {
         let zero = T::zero();
         let one = T::one();
         match self {
@@ -163,6 +164,14 @@ impl Op {
             Op::Add => [one, one, zero],
             Op::Sub => [one, -one, zero],
             Op::Mul => [b, a, zero],
+            Op::Div => {
+                let r = b.recip();
+                [r, -(out * r), zero]
+            }
+            Op::Exp => [out, zero, zero],
+            Op::Log => [a.recip(), zero, zero],
+            Op::Tanh => [one - out * out, zero, zero],
+            Op::Powi(2) => [a + a, zero, zero],
             _ => self.partials_from_duals(a, b, c),
         }
     }
@@ -204,6 +213,7 @@ mod tests {
         Op::Mul,
         Op::Div,
         Op::Pow,
+        Op::Powi(2),
         Op::Powi(3),
         Op::Powi(-2),
         Op::Powf(0.5f64.to_bits()),
@@ -224,7 +234,7 @@ mod tests {
                 Dual64::new(0.4, -0.2),
                 Dual64::new(2.0, 1.0),
             );
-            let fast = op.partials(a, b, c);
+            let fast = op.partials(a, b, c, op.apply(a, b, c));
             let slow = op.partials_from_duals(a, b, c);
             for i in 0..3 {
                 assert!((fast[i].re - slow[i].re).abs() < 1e-14, "{op:?}");
@@ -237,7 +247,12 @@ mod tests {
     fn partials_agree_with_central_differences() {
         for &op in ALL {
             let args = [0.8, 1.7, 0.3];
-            let p = op.partials(args[0], args[1], args[2]);
+            let p = op.partials(
+                args[0],
+                args[1],
+                args[2],
+                op.apply_f64(args[0], args[1], args[2]),
+            );
             for i in 0..op.arity() {
                 let h = 1e-6;
                 let mut up = args;
@@ -257,7 +272,7 @@ mod tests {
 
     #[test]
     fn square_of_zero_has_finite_derivative() {
-        let d = Op::Powi(2).partials(0.0, 0.0, 0.0);
+        let d = Op::Powi(2).partials(0.0, 0.0, 0.0, 0.0);
         assert_eq!(d[0], 0.0);
     }
 }
