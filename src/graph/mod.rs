@@ -101,7 +101,12 @@ impl Graph {
         if c.iter().all(Option::is_some) && !args.is_empty() {
             let v: Vec<f64> = c.iter().map(|x| x.unwrap_or(0.0)).collect();
             let get = |i: usize| v.get(i).copied().unwrap_or(0.0);
-            return self.constant(op.apply_f64(get(0), get(1), get(2)));
+            let value = match op {
+                // Exact for integer exponents and negative bases, unlike exp(b ln a).
+                Op::Pow => get(0).powf(get(1)),
+                _ => op.apply_f64(get(0), get(1), get(2)),
+            };
+            return self.constant(value);
         }
         let is = |i: usize, value: f64| c.get(i).copied().flatten() == Some(value);
         match op {

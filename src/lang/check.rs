@@ -882,8 +882,18 @@ impl Checker {
 
     /// Evaluates a constant expression (parameters at their nominal values).
     fn constant(&mut self, e: &Expr, what: &str) -> Option<f64> {
+        let errors_before = self.diags.iter().filter(|d| d.is_error()).count();
         let n = self.lower(e, Context::Constant);
+        let new_errors = self.diags.iter().filter(|d| d.is_error()).count() > errors_before;
         match self.graph.as_constant(n) {
+            Some(v) if !v.is_finite() && !new_errors => {
+                self.diags.push(
+                    Diagnostic::error("E022", e.span(), format!("{what} evaluates to {v}"))
+                        .label("not a finite number")
+                        .help("check for a division by zero, the log of a negative number or an overflow"),
+                );
+                None
+            }
             Some(v) => Some(v),
             None => {
                 self.diags.push(

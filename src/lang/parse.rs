@@ -41,9 +41,13 @@ pub fn parse(file: usize, text: &str) -> (Vec<Statement>, Vec<Diagnostic>) {
     let mut statements = Vec::new();
     let mut diagnostics = Vec::new();
     for (start, chunk) in split_statements(text) {
+        if let Some(d) = too_complex(file, start, chunk) {
+            diagnostics.push(d);
+            continue;
+        }
         match GhmParser::parse(Rule::statement, chunk) {
             Ok(mut pairs) => {
-                let Some(stmt_pair) = pairs.next().and_then(|p| p.into_inner().next()) else {
+                let Some(stmt_pair) = pairs.next().and_then(|p| p.children().next()) else {
                     continue;
                 };
                 let builder = Builder {
@@ -59,6 +63,54 @@ pub fn parse(file: usize, text: &str) -> (Vec<Statement>, Vec<Diagnostic>) {
         }
     }
     (statements, diagnostics)
+}
+
+/// Deepest bracket nesting and most operators one statement may have: far beyond any
+/// model, and low enough that parsing and checking (both recursive) cannot overflow.
+const MAX_NESTING: usize = 64;
+const MAX_OPERATORS: usize = 1000;
+
+/// Rejects a statement too deeply nested or too long to check safely.
+fn too_complex(file: usize, start: usize, chunk: &str) -> Option<Diagnostic> {
+    let (mut depth, mut deepest, mut deepest_at, mut operators) = (0usize, 0usize, 0usize, 0usize);
+    for (i, c) in chunk.char_indices() {
+        match c {
+            '(' | '[' => {
+                depth += 1;
+                if depth > deepest {
+                    deepest = depth;
+                    deepest_at = i;
+                }
+            }
+            ')' | ']' => depth = depth.saturating_sub(1),
+            '+' | '-' | '*' | '/' | '^' | '<' | '>' | ',' => operators += 1,
+            _ => {}
+        }
+    }
+    let span = |at: usize| Span::new(file, start + at, start + at + 1);
+    if deepest > MAX_NESTING {
+        return Some(
+            Diagnostic::error(
+                "E023",
+                span(deepest_at),
+                format!("brackets nested {deepest} deep (at most {MAX_NESTING})"),
+            )
+            .label("too deep")
+            .help("split the expression into named parts with `let`"),
+        );
+    }
+    if operators > MAX_OPERATORS {
+        return Some(
+            Diagnostic::error(
+                "E023",
+                span(0),
+                format!("statement has {operators} operators (at most {MAX_OPERATORS})"),
+            )
+            .label("statement too long")
+            .help("split the expression into named parts with `let`"),
+        );
+    }
+    None
 }
 
 /// Splits the text into `(byte offset, statement text)` pieces. Text before the first
@@ -165,6 +217,20 @@ fn describe_expected(rules: &[Rule]) -> String {
     }
 }
 
+/// Children of a pair without the keyword tokens (`kw_*` rules), which carry no data.
+trait Children<'i> {
+    fn children(self) -> std::vec::IntoIter<Pair<'i, Rule>>;
+}
+
+impl<'i> Children<'i> for Pair<'i, Rule> {
+    fn children(self) -> std::vec::IntoIter<Pair<'i, Rule>> {
+        self.into_inner()
+            .filter(|q| !format!("{:?}", q.as_rule()).starts_with("kw_"))
+            .collect::<Vec<_>>()
+            .into_iter()
+    }
+}
+
 /// Turns pest pairs into AST nodes, shifting positions by the piece's offset.
 struct Builder {
     file: usize,
@@ -190,7 +256,7 @@ impl Builder {
         // string = "\"" ~ string_body ~ "\""; description wraps a string.
         let mut p = p;
         while p.as_rule() != Rule::string_body {
-            match p.into_inner().next() {
+            match p.children().next() {
                 Some(inner) => p = inner,
                 None => return String::new(),
             }
@@ -199,7 +265,7 @@ impl Builder {
     }
 
     fn unit(p: Pair<Rule>) -> String {
-        p.into_inner()
+        p.children()
             .next()
             .map(|b| b.as_str().trim().to_string())
             .unwrap_or_default()
@@ -208,14 +274,14 @@ impl Builder {
     fn statement(&self, p: Pair<Rule>) -> Built<Statement> {
         let span = self.span(&p);
         if p.as_rule() == Rule::override_stmt {
-            let inner = p.into_inner().next().ok_or_else(|| self.internal(span))?;
+            let inner = p.children().next().ok_or_else(|| self.internal(span))?;
             let mut s = self.statement(inner)?;
             s.overrides = true;
             s.span = span;
             return Ok(s);
         }
         let rule = p.as_rule();
-        let mut it = p.into_inner();
+        let mut it = p.children();
         let stmt = match rule {
             Rule::model_stmt => {
                 let name = self.name(self.next(&mut it, span)?);
@@ -243,7 +309,7 @@ impl Builder {
                         Rule::unit => doc.unit = Some(Self::unit(q)),
                         Rule::expr => value = Some(self.expr(q)?),
                         Rule::uncertain => kind = ParamKind::Uncertain,
-                        Rule::source_ref => doc.source = q.into_inner().next().map(Self::string),
+                        Rule::source_ref => doc.source = q.children().next().map(Self::string),
                         Rule::description => doc.description = Some(Self::string(q)),
                         _ => {}
                     }
@@ -300,16 +366,14 @@ impl Builder {
                     match q.as_rule() {
                         Rule::unit => doc.unit = Some(Self::unit(q)),
                         Rule::bounds => {
-                            let mut b = q.into_inner();
+                            let mut b = q.children();
                             let lo = self.expr(self.next(&mut b, span)?)?;
                             let hi = self.expr(self.next(&mut b, span)?)?;
                             bounds = Some((lo, hi));
                         }
-                        Rule::rate => {
-                            rate = Some(self.expr(self.next(&mut q.into_inner(), span)?)?)
-                        }
+                        Rule::rate => rate = Some(self.expr(self.next(&mut q.children(), span)?)?),
                         Rule::start => {
-                            start = Some(self.expr(self.next(&mut q.into_inner(), span)?)?)
+                            start = Some(self.expr(self.next(&mut q.children(), span)?)?)
                         }
                         Rule::description => doc.description = Some(Self::string(q)),
                         _ => {}
@@ -329,9 +393,9 @@ impl Builder {
                 for q in it {
                     match q.as_rule() {
                         Rule::unit => doc.unit = Some(Self::unit(q)),
-                        Rule::column => column = q.into_inner().next().map(Self::string),
+                        Rule::column => column = q.children().next().map(Self::string),
                         Rule::value => {
-                            value = Some(self.expr(self.next(&mut q.into_inner(), span)?)?)
+                            value = Some(self.expr(self.next(&mut q.children(), span)?)?)
                         }
                         Rule::description => doc.description = Some(Self::string(q)),
                         _ => {}
@@ -355,11 +419,9 @@ impl Builder {
                 for q in it {
                     match q.as_rule() {
                         Rule::unit => unit = Some(Self::unit(q)),
-                        Rule::integrator => {
-                            integrator = q.into_inner().next().map(|n| self.name(n))
-                        }
+                        Rule::integrator => integrator = q.children().next().map(|n| self.name(n)),
                         Rule::substeps => {
-                            substeps = Some(self.expr(self.next(&mut q.into_inner(), span)?)?)
+                            substeps = Some(self.expr(self.next(&mut q.children(), span)?)?)
                         }
                         _ => {}
                     }
@@ -375,7 +437,7 @@ impl Builder {
             Rule::soft_stmt => {
                 let output = self.name(self.next(&mut it, span)?);
                 let band = self.band(self.next(&mut it, span)?)?;
-                let mut w = self.next(&mut it, span)?.into_inner();
+                let mut w = self.next(&mut it, span)?.children();
                 let weight_lo = self.expr(self.next(&mut w, span)?)?;
                 let weight_hi = match w.next() {
                     Some(e) => Some(self.expr(e)?),
@@ -384,9 +446,7 @@ impl Builder {
                 let (mut plan, mut description) = (None, None);
                 for q in it {
                     match q.as_rule() {
-                        Rule::plan => {
-                            plan = Some(self.band(self.next(&mut q.into_inner(), span)?)?)
-                        }
+                        Rule::plan => plan = Some(self.band(self.next(&mut q.children(), span)?)?),
                         Rule::description => description = Some(Self::string(q)),
                         _ => {}
                     }
@@ -408,7 +468,7 @@ impl Builder {
             Rule::uncertainty_stmt => {
                 let mut settings = Vec::new();
                 for s in it {
-                    let mut kv = s.into_inner();
+                    let mut kv = s.children();
                     let k = self.name(self.next(&mut kv, span)?);
                     let v = self.name(self.next(&mut kv, span)?);
                     settings.push((k, v));
@@ -426,9 +486,9 @@ impl Builder {
 
     fn band(&self, p: Pair<Rule>) -> Built<Band> {
         let span = self.span(&p);
-        let inner = self.next(&mut p.into_inner(), span)?;
+        let inner = self.next(&mut p.children(), span)?;
         let rule = inner.as_rule();
-        let mut it = inner.into_inner();
+        let mut it = inner.children();
         let first = self.expr(self.next(&mut it, span)?)?;
         Ok(match rule {
             Rule::band_in => {
@@ -456,11 +516,11 @@ impl Builder {
         let span = self.span(&p);
         match p.as_rule() {
             Rule::expr | Rule::atom => {
-                let inner = self.next(&mut p.into_inner(), span)?;
+                let inner = self.next(&mut p.children(), span)?;
                 self.expr(inner)
             }
             Rule::comparison | Rule::sum | Rule::product => {
-                let mut it = p.into_inner();
+                let mut it = p.children();
                 let mut lhs = self.expr(self.next(&mut it, span)?)?;
                 while let Some(op) = it.next() {
                     let rhs = self.expr(self.next(&mut it, span)?)?;
@@ -482,7 +542,7 @@ impl Builder {
             Rule::unary => {
                 let mut negs = 0;
                 let mut last = None;
-                for q in p.into_inner() {
+                for q in p.children() {
                     if q.as_rule() == Rule::neg {
                         negs += 1;
                     } else {
@@ -496,7 +556,7 @@ impl Builder {
                 Ok(e)
             }
             Rule::power => {
-                let mut it = p.into_inner();
+                let mut it = p.children();
                 let base = self.expr(self.next(&mut it, span)?)?;
                 match it.next() {
                     Some(exp) => Ok(Expr::Binary(
@@ -520,11 +580,11 @@ impl Builder {
             }
             Rule::ident => Ok(Expr::Name(self.name(p))),
             Rule::next_call => {
-                let n = self.name(self.next(&mut p.into_inner(), span)?);
+                let n = self.name(self.next(&mut p.children(), span)?);
                 Ok(Expr::Next(n, span))
             }
             Rule::call => {
-                let mut it = p.into_inner();
+                let mut it = p.children();
                 let f = self.name(self.next(&mut it, span)?);
                 let args = it.map(|a| self.expr(a)).collect::<Built<Vec<_>>>()?;
                 Ok(Expr::Call(f, args, span))
@@ -535,7 +595,7 @@ impl Builder {
 
     fn next<'i>(
         &self,
-        it: &mut pest::iterators::Pairs<'i, Rule>,
+        it: &mut impl Iterator<Item = Pair<'i, Rule>>,
         span: Span,
     ) -> Built<Pair<'i, Rule>> {
         it.next().ok_or_else(|| self.internal(span))

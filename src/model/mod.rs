@@ -9,9 +9,11 @@
 //! Architecture invariant: `model` knows no solver and no controller. It only reads the
 //! language's [`Model`] and the graph.
 
+mod builder;
 mod penalty;
 pub mod verify;
 
+pub use builder::{BuildError, Ex, ModelBuilder};
 pub use penalty::{band_penalty, StagePenalty};
 
 use crate::graph::{Graph, NodeId, Tape, Workspace};
