@@ -101,6 +101,13 @@ fn metrics_add_up() {
 #[test]
 fn paper_uncertainty_draws_marked_parameters_once_per_season() {
     let p = plant("models/lettuce.ghm");
+    let marked = p
+        .model
+        .params
+        .iter()
+        .filter(|d| d.kind == ghm::lang::ast::ParamKind::Uncertain)
+        .count();
+    assert_eq!(marked, 22, "the paper's 22 physical parameters");
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
     let draws: Vec<Vec<f64>> = (0..200).map(|_| draw_params(&p, 0.05, &mut rng)).collect();
     for (i, decl) in p.model.params.iter().enumerate() {
@@ -148,6 +155,8 @@ fn paper_uncertainty_draws_marked_parameters_once_per_season() {
 fn thesis_uncertainty_redraws_all_parameters_every_step_within_half_delta() {
     let p = plant("models/lettuce-thesis.ghm");
     assert_eq!(p.model.uncertainty.redraw, ghm::lang::model::Redraw::Step);
+    // The published code's 28-entry parameter vector: 22 physical + 6 output-map constants.
+    assert_eq!(p.model.params.len(), 28);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2);
     for _ in 0..100 {
         let d = draw_params(&p, 0.1, &mut rng);
