@@ -91,3 +91,33 @@ fn custom_plant_example_runs() {
     );
     assert!(String::from_utf8_lossy(&out.stdout).contains("room after one day"));
 }
+
+/// A plant without disturbances runs a season on a constant (empty) weather.
+#[test]
+fn plant_without_disturbances_runs_a_season() {
+    let mut b = ModelBuilder::new("decay");
+    let x = b.state("x", 1.0);
+    let k = b.param("k", 0.1);
+    let kx = b.mul(k, x);
+    let rhs = b.neg(kx);
+    b.der(x, rhs);
+    b.sample(1.0, 1);
+    let plant = Plant::new(b.build().expect("complete model"));
+    let weather = ghm::sim::weather::Weather::constant(vec![], &[], 10, 1.0);
+    assert_eq!(weather.len(), 10);
+    let config = ghm::sim::season::SeasonConfig {
+        steps: 10,
+        enforce_limits: true,
+        uncertainty: None,
+    };
+    let mut none = ghm::control::ConstantInput(vec![]);
+    let r = ghm::sim::season::run_season(
+        &plant,
+        &weather,
+        &mut none,
+        &config,
+        &mut |_: &ghm::sim::season::StepLog| {},
+    )
+    .expect("season");
+    assert!(r.final_state[0] < 1.0 && r.final_state[0] > 0.3);
+}

@@ -201,6 +201,9 @@ pub struct Weather {
     pub names: Vec<String>,
     data: Vec<f64>,
     width: usize,
+    /// Number of rows (kept apart from `data` so that a plant without disturbances still
+    /// has a season length).
+    rows: usize,
 }
 
 impl Weather {
@@ -228,18 +231,20 @@ impl Weather {
                 names[i % width]
             ));
         }
+        let rows = data.len().checked_div(width).unwrap_or(0);
         Ok(Weather {
             source,
             period_s,
             names,
             data,
             width,
+            rows,
         })
     }
 
     /// Number of steps (rows).
     pub fn len(&self) -> usize {
-        self.data.len().checked_div(self.width).unwrap_or(0)
+        self.rows
     }
 
     /// True if there are no rows.
@@ -289,6 +294,7 @@ impl Weather {
             width: names.len(),
             names,
             data,
+            rows: len,
         }
     }
 }
