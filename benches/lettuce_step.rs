@@ -46,12 +46,7 @@ fn season(c: &mut Criterion) {
     use ghm::control::ConstantInput;
     use ghm::sim::season::{run_season, SeasonConfig, StepLog};
     let (plant, _) = lettuce();
-    let cols: Vec<String> = plant
-        .model
-        .disturbances
-        .iter()
-        .filter_map(|d| d.column.clone())
-        .collect();
+    let cols = plant.model.weather_columns();
     let weather = ghm::sim::weather::builtin_season(1920, 1800.0, 1)
         .select(&cols, 0, 1920)
         .expect("built-in weather");

@@ -12,12 +12,7 @@ fn plant(file: &str) -> Plant {
 }
 
 fn weather(plant: &Plant, steps: usize) -> ghm::sim::weather::Weather {
-    let cols: Vec<String> = plant
-        .model
-        .disturbances
-        .iter()
-        .filter_map(|d| d.column.clone())
-        .collect();
+    let cols = plant.model.weather_columns();
     builtin_season(steps, 1800.0, 3)
         .select(&cols, 0, steps)
         .expect("built-in season has every column")

@@ -17,12 +17,7 @@ fn plant(file: &str) -> Plant {
 }
 
 fn venlo(plant: &Plant, steps: usize) -> ghm::sim::weather::Weather {
-    let columns: Vec<String> = plant
-        .model
-        .disturbances
-        .iter()
-        .filter_map(|d| d.column.clone())
-        .collect();
+    let columns = plant.model.weather_columns();
     load_csv(Path::new(VENLO), &columns, 1800.0)
         .and_then(|f| f.select(&columns, START_ROW, steps))
         .expect("Venlo weather (../shared) must be readable")

@@ -51,11 +51,7 @@ impl WeatherArgs {
 
     /// The weather for `steps` steps plus `extra` steps of forecast.
     pub fn load(&self, model: &Model, steps: usize, extra: usize) -> Result<Weather, CliError> {
-        let wanted: Vec<String> = model
-            .disturbances
-            .iter()
-            .map(|d| d.column.clone().unwrap_or_else(|| d.info.name.clone()))
-            .collect();
+        let wanted = model.weather_columns();
         let rows = steps + extra;
         let frame: WeatherFrame = match (&self.weather, &self.knmi) {
             (Some(path), _) => load_csv(path, &wanted, model.sample_period)?,

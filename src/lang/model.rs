@@ -196,6 +196,14 @@ impl Model {
         self.inputs.iter().map(|u| u.start).collect()
     }
 
+    /// The weather column each disturbance is read from (its `column`, else its name).
+    pub fn weather_columns(&self) -> Vec<String> {
+        self.disturbances
+            .iter()
+            .map(|d| d.column.clone().unwrap_or_else(|| d.info.name.clone()))
+            .collect()
+    }
+
     pub fn output_index(&self, name: &str) -> Option<usize> {
         self.outputs.iter().position(|o| o.info.name == name)
     }
