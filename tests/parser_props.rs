@@ -8,6 +8,7 @@
 //! profile; set `PROPTEST_CASES` for a longer hunt.
 
 use ghm::lang::diagnostic::{render, Diagnostic};
+use ghm::lang::parse::STATEMENT_KEYWORDS;
 use ghm::lang::source::SourceMap;
 use ghm::lang::{load_str, CheckFailure, Model};
 use proptest::prelude::*;
@@ -168,28 +169,6 @@ fn apply(bytes: &mut Vec<u8>, m: &Mutation) {
 }
 
 // ---- token soups -----------------------------------------------------------------------
-
-/// Keywords that start a statement (the parser splits the text at lines starting so).
-const STATEMENT_KEYWORDS: &[&str] = &[
-    "model",
-    "import",
-    "param",
-    "const",
-    "state",
-    "input",
-    "disturbance",
-    "let",
-    "der",
-    "output",
-    "sample",
-    "reward",
-    "cost",
-    "soft",
-    "terminal",
-    "override",
-    "drop",
-    "uncertainty",
-];
 
 /// The other keywords.
 const KEYWORDS: &[&str] = &[

@@ -15,7 +15,8 @@ use pest::Parser;
 #[grammar = "../grammar/ghm.pest"]
 struct GhmParser;
 
-const STATEMENT_KEYWORDS: &[&str] = &[
+/// Keywords that start a statement: the parser splits the source at lines starting so.
+pub const STATEMENT_KEYWORDS: &[&str] = &[
     "model",
     "import",
     "param",

@@ -110,6 +110,7 @@ impl StepOutcome {
 #[derive(Debug, Clone)]
 pub struct StepWorkspace {
     ws: Workspace<f64>,
+    output_ws: Workspace<f64>,
     inputs: Vec<f64>,
     outputs: Vec<f64>,
 }
@@ -170,6 +171,7 @@ impl Plant {
     pub fn workspace(&self) -> StepWorkspace {
         StepWorkspace {
             ws: self.step.workspace(),
+            output_ws: self.output.workspace(),
             inputs: vec![0.0; self.layout.n_base()],
             outputs: vec![0.0; self.step.n_outputs()],
         }
@@ -219,9 +221,24 @@ impl Plant {
 
     /// Outputs `y = g(x, u, d, p)`.
     pub fn outputs(&self, x: &[f64], u: &[f64], d: &[f64], p: &[f64]) -> Vec<f64> {
-        let mut buf = vec![0.0; self.layout.n_base()];
-        self.pack(&mut buf, x, u, d, p);
-        self.output.eval_f64(&buf)
+        let mut ws = self.workspace();
+        let mut y = vec![0.0; self.output.n_outputs()];
+        self.outputs_into(&mut ws, x, u, d, p, &mut y);
+        y
+    }
+
+    /// Outputs `y = g(x, u, d, p)` into `y`, without allocation.
+    pub fn outputs_into(
+        &self,
+        ws: &mut StepWorkspace,
+        x: &[f64],
+        u: &[f64],
+        d: &[f64],
+        p: &[f64],
+        y: &mut [f64],
+    ) {
+        self.pack(&mut ws.inputs, x, u, d, p);
+        self.output.eval(&mut ws.output_ws, &ws.inputs, y);
     }
 
     /// Penalties of the soft bands on the outputs `y` (scoring bounds).

@@ -157,7 +157,8 @@ pub fn run_season(
             params = draw_params(plant, delta, &mut rng);
         }
         let d = weather.at(k);
-        let y = plant.outputs(&x, &u_prev, d, &params);
+        let mut y = vec![0.0; plant.model.outputs.len()];
+        plant.outputs_into(&mut ws, &x, &u_prev, d, &params, &mut y);
         let forecast = weather.horizon(k, weather.len() - k).unwrap_or(&[]);
         let obs = Observation {
             step: k,
