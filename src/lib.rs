@@ -4,5 +4,7 @@ pub mod control;
 pub mod graph;
 pub mod lang;
 pub mod model;
+pub mod nlp;
 pub mod report;
 pub mod sim;
+pub mod solve;

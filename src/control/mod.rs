@@ -3,6 +3,10 @@
 //! record of what it did. Fixed and tabulated inputs live here; MPC and learned policies
 //! implement the same trait.
 
+mod mpc;
+
+pub use mpc::Mpc;
+
 use thiserror::Error;
 
 /// What a controller sees at step `k`.

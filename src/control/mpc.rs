@@ -1,0 +1,186 @@
+//! Economic model-predictive control: at every step, solve the optimal-control problem
+//! over the horizon from the measured state and apply the first input.
+//!
+//! The solve starts from the previous solution shifted by one step (primal and dual). Its
+//! status is checked every step; when it fails, the controller falls back, in this order:
+//!
+//! 1. `cold_start`: solve again from the held previous input, simulated;
+//! 2. `shifted_plan`: apply the second input of the last successful plan;
+//! 3. `hold_input`: hold the previous input (within the bounds and rate limits).
+//!
+//! The step's record names the path taken, so a season's log shows every fallback.
+
+use super::{ControlError, Controller, Decision, Observation, StepRecord};
+use crate::model::Plant;
+use crate::nlp::{Nlp, Ocp, OcpError};
+use crate::solve::{Solution, Solver, Start};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// The economic MPC controller.
+pub struct Mpc {
+    ocp: Ocp,
+    solver: Box<dyn Solver>,
+    /// The last successful solution, in the time frame of the step it was computed at.
+    last: Option<Solution>,
+    /// How many steps ago `last` was computed.
+    last_age: usize,
+    forecast: Vec<f64>,
+    start_x: Vec<f64>,
+    start_lambda: Vec<f64>,
+    start_nu: Vec<f64>,
+}
+
+impl Mpc {
+    /// MPC of `plant` over `horizon` steps with `solver`, predicting with nominal
+    /// parameters.
+    pub fn new(
+        plant: Arc<Plant>,
+        horizon: usize,
+        solver: Box<dyn Solver>,
+    ) -> Result<Mpc, OcpError> {
+        let ocp = Ocp::new(plant, horizon)?;
+        let (n, m) = (ocp.n_vars(), ocp.n_cons());
+        Ok(Mpc {
+            ocp,
+            solver,
+            last: None,
+            last_age: 0,
+            forecast: Vec::new(),
+            start_x: vec![0.0; n],
+            start_lambda: vec![0.0; m],
+            start_nu: vec![0.0; n],
+        })
+    }
+
+    pub fn ocp(&self) -> &Ocp {
+        &self.ocp
+    }
+
+    pub fn ocp_mut(&mut self) -> &mut Ocp {
+        &mut self.ocp
+    }
+
+    /// The last successful solution (its plan starts at the step it was computed for).
+    pub fn last_solution(&self) -> Option<&Solution> {
+        self.last.as_ref()
+    }
+
+    /// The forecast padded to the horizon by repeating its last row.
+    fn pad_forecast(&mut self, forecast: &[f64]) -> Result<(), ControlError> {
+        let nd = self.ocp.plant().layout.nd;
+        let needed = self.ocp.horizon() * nd;
+        self.forecast.clear();
+        self.forecast
+            .extend_from_slice(&forecast[..forecast.len().min(needed)]);
+        if self.forecast.len() < needed {
+            if nd > 0 && forecast.len() < nd {
+                return Err(ControlError::Other("the forecast is empty".into()));
+            }
+            let last = forecast[forecast.len() - nd..].to_vec();
+            while self.forecast.len() < needed {
+                self.forecast.extend_from_slice(&last);
+            }
+        }
+        Ok(())
+    }
+
+    fn solve_warm(&mut self) -> Option<Solution> {
+        let last = self.last.as_ref()?;
+        if self.last_age != 1 {
+            return None;
+        }
+        self.ocp.shift_primal(&last.x, &mut self.start_x);
+        self.ocp
+            .shift_multipliers(&last.multipliers, &mut self.start_lambda);
+        self.ocp
+            .shift_bound_multipliers(&last.bound_multipliers, &mut self.start_nu);
+        Some(self.solver.solve(
+            &mut self.ocp,
+            Start::warm(&self.start_x, &self.start_lambda, &self.start_nu),
+        ))
+    }
+
+    fn solve_cold(&mut self) -> Solution {
+        self.ocp.initial_point(&mut self.start_x);
+        self.solver.solve(&mut self.ocp, Start::cold(&self.start_x))
+    }
+
+    /// The fallback inputs when no solve succeeded.
+    fn fallback_input(&self, previous: &[f64]) -> (Vec<f64>, &'static str) {
+        let model = &self.ocp.plant().model;
+        let planned = self.last.as_ref().and_then(|s| {
+            let j = self.last_age;
+            (j < self.ocp.horizon()).then(|| self.ocp.input(&s.x, j).to_vec())
+        });
+        let (mut u, path) = match planned {
+            Some(u) => (u, "shifted_plan"),
+            None => (previous.to_vec(), "hold_input"),
+        };
+        for (i, decl) in model.inputs.iter().enumerate() {
+            if let Some(r) = decl.rate {
+                u[i] = u[i].clamp(previous[i] - r, previous[i] + r);
+            }
+            u[i] = u[i].clamp(decl.lower, decl.upper);
+        }
+        (u, path)
+    }
+}
+
+impl Controller for Mpc {
+    fn name(&self) -> String {
+        format!("mpc-{}", self.solver.name())
+    }
+
+    fn decide(&mut self, observation: &Observation) -> Result<Decision, ControlError> {
+        let clock = Instant::now();
+        self.pad_forecast(observation.forecast)?;
+        self.ocp
+            .set_problem(
+                observation.step,
+                observation.state,
+                observation.previous_input,
+                &self.forecast,
+            )
+            .map_err(|e| ControlError::Other(e.to_string()))?;
+        self.last_age += 1;
+        let mut iterations = 0;
+        let mut fallback = None;
+        let mut solution = self.solve_warm();
+        let warm_failed = solution.as_ref().is_some_and(|s| !s.status.is_success());
+        if let Some(s) = &solution {
+            iterations += s.stats.iterations;
+        }
+        if solution.as_ref().is_none_or(|s| !s.status.is_success()) {
+            let cold = self.solve_cold();
+            iterations += cold.stats.iterations;
+            if warm_failed {
+                fallback = Some("cold_start".to_string());
+            }
+            solution = Some(cold);
+        }
+        let Some(solution) = solution else {
+            return Err(ControlError::Other("no solve was attempted".into()));
+        };
+        let status = solution.status;
+        let input = if status.is_success() {
+            let u = self.ocp.input(&solution.x, 0).to_vec();
+            self.last = Some(solution);
+            self.last_age = 0;
+            u
+        } else {
+            let (u, path) = self.fallback_input(observation.previous_input);
+            fallback = Some(path.to_string());
+            u
+        };
+        Ok(Decision {
+            input,
+            record: StepRecord {
+                solve_time_s: clock.elapsed().as_secs_f64(),
+                iterations,
+                status: status.as_str().to_string(),
+                fallback,
+            },
+        })
+    }
+}

@@ -1,0 +1,106 @@
+//! Nonlinear programs: the [`Nlp`] trait every solver back-end consumes, and the
+//! optimal-control transcription [`Ocp`] of a plant over a horizon.
+//!
+//! The conventions are IPOPT's, so that every back-end reads the same problem:
+//!
+//! ```text
+//! minimise f(x)   subject to   x_l ≤ x ≤ x_u,   g_l ≤ g(x) ≤ g_u,
+//! ```
+//!
+//! with the Lagrangian `L = σ f(x) + λᵀ g(x)` (bound multipliers apart). Equalities have
+//! `g_l = g_u`; infinite bounds are `±f64::INFINITY`. Sparse matrices are given as a fixed
+//! pattern of `(row, col)` pairs ([`Pattern`]) and a value vector in the same order; the
+//! Hessian pattern holds the lower triangle only (`row ≥ col`).
+
+mod ocp;
+mod terminal;
+
+pub use ocp::{Ocp, OcpError, OcpLayout};
+pub use terminal::{LinearTerminalCost, TerminalBox, TerminalCost};
+
+use std::ops::Range;
+
+/// The fixed sparsity pattern of a sparse matrix, as coordinate pairs.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Pattern {
+    pub rows: Vec<usize>,
+    pub cols: Vec<usize>,
+}
+
+impl Pattern {
+    pub fn push(&mut self, row: usize, col: usize) {
+        self.rows.push(row);
+        self.cols.push(col);
+    }
+
+    pub fn len(&self) -> usize {
+        self.rows.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.rows.is_empty()
+    }
+}
+
+/// A nonlinear program with exact first and second derivatives.
+///
+/// Evaluations take `&mut self` so that an implementation may keep its workspaces (and
+/// caches of the last point) without allocating per call.
+pub trait Nlp {
+    fn n_vars(&self) -> usize;
+    fn n_cons(&self) -> usize;
+    /// Variable bounds `x_l, x_u`.
+    fn var_bounds(&self, lower: &mut [f64], upper: &mut [f64]);
+    /// Constraint bounds `g_l, g_u`.
+    fn con_bounds(&self, lower: &mut [f64], upper: &mut [f64]);
+    /// A starting point when the caller has none.
+    fn initial_point(&mut self, x: &mut [f64]);
+
+    fn objective(&mut self, x: &[f64]) -> f64;
+    fn gradient(&mut self, x: &[f64], gradient: &mut [f64]);
+    fn constraints(&mut self, x: &[f64], g: &mut [f64]);
+
+    /// Pattern of the constraint Jacobian `∂g/∂x` (`n_cons × n_vars`).
+    fn jacobian_pattern(&self) -> &Pattern;
+    fn jacobian_values(&mut self, x: &[f64], values: &mut [f64]);
+
+    /// Pattern of the lower triangle of `∇²L` (`n_vars × n_vars`).
+    fn hessian_pattern(&self) -> &Pattern;
+    /// Values of `∇²(σ f + λᵀ g)` on [`Nlp::hessian_pattern`].
+    fn hessian_values(
+        &mut self,
+        x: &[f64],
+        objective_factor: f64,
+        multipliers: &[f64],
+        values: &mut [f64],
+    );
+
+    /// Index ranges of the variables whose Hessian entries form diagonal blocks (stages of
+    /// an optimal-control problem): the unit a solver regularises on. Every Hessian entry
+    /// lies inside one block. The default is one block of all variables.
+    fn hessian_blocks(&self) -> Vec<Range<usize>> {
+        std::iter::once(0..self.n_vars()).collect()
+    }
+
+    /// Everything a second-order method needs at one point, in one call: objective,
+    /// constraints, gradient, Jacobian and Hessian values. Implementations that get all of
+    /// them from one derivative sweep override this.
+    #[allow(clippy::too_many_arguments)]
+    fn evaluate_all(
+        &mut self,
+        x: &[f64],
+        objective_factor: f64,
+        multipliers: &[f64],
+        g: &mut [f64],
+        gradient: &mut [f64],
+        jacobian: &mut [f64],
+        hessian: &mut [f64],
+    ) -> f64 {
+        let f = self.objective(x);
+        self.constraints(x, g);
+        self.gradient(x, gradient);
+        self.jacobian_values(x, jacobian);
+        self.hessian_values(x, objective_factor, multipliers, hessian);
+        f
+    }
+}

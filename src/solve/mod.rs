@@ -1,0 +1,122 @@
+//! Solvers of nonlinear programs behind one [`Solver`] trait.
+//!
+//! * [`Sqp`]: sequential quadratic programming with the exact Hessian, regularised per
+//!   stage block, quadratic sub-problems solved by clarabel, an ℓ₁-merit line search and
+//!   warm starts. Pure Rust; the default.
+//! * `Ipopt` (cargo feature `ipopt`): the system's IPOPT through its C interface.
+//!
+//! A solve never panics on a bad problem: it returns a [`Solution`] whose
+//! [`SolveStatus`] says what happened, with statistics and KKT residuals.
+//!
+//! Multiplier conventions (shared by every back-end and by [`kkt_residuals`]): the
+//! stationarity condition is `∇f + Jᵀλ + ν = 0`, where `λ` are the constraint
+//! multipliers and `ν` the bound multipliers, both signed: positive where an upper bound
+//! is active, negative where a lower bound is.
+
+mod kkt;
+mod qp;
+mod sqp;
+
+pub use kkt::{kkt_residuals, KktResiduals};
+pub use sqp::{Sqp, SqpOptions};
+
+use crate::nlp::Nlp;
+use serde::Serialize;
+use std::fmt;
+
+/// How a solve ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SolveStatus {
+    /// KKT conditions hold to the requested tolerance.
+    Optimal,
+    /// KKT conditions hold to the looser, acceptable tolerance.
+    Acceptable,
+    MaxIterations,
+    /// The (linearised) constraints could not be satisfied.
+    Infeasible,
+    /// The line search or the sub-problem solver could not make progress.
+    NumericalError,
+    /// A function value or derivative was not finite.
+    InvalidNumber,
+}
+
+impl SolveStatus {
+    /// Optimal or acceptable: the solution may be applied.
+    pub fn is_success(self) -> bool {
+        matches!(self, SolveStatus::Optimal | SolveStatus::Acceptable)
+    }
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            SolveStatus::Optimal => "optimal",
+            SolveStatus::Acceptable => "acceptable",
+            SolveStatus::MaxIterations => "max_iterations",
+            SolveStatus::Infeasible => "infeasible",
+            SolveStatus::NumericalError => "numerical_error",
+            SolveStatus::InvalidNumber => "invalid_number",
+        }
+    }
+}
+
+impl fmt::Display for SolveStatus {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// What a solve cost and how well it converged.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct SolveStats {
+    pub iterations: usize,
+    pub time_s: f64,
+    pub objective: f64,
+    pub kkt: KktResiduals,
+}
+
+/// A primal-dual point and how it was reached.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Solution {
+    pub status: SolveStatus,
+    pub x: Vec<f64>,
+    /// Constraint multipliers `λ` (signed, see the module doc).
+    pub multipliers: Vec<f64>,
+    /// Bound multipliers `ν` (signed, see the module doc).
+    pub bound_multipliers: Vec<f64>,
+    pub stats: SolveStats,
+}
+
+/// Where a solve starts: a primal point and, if known, multipliers from an earlier solve.
+#[derive(Debug, Clone, Copy)]
+pub struct Start<'a> {
+    pub x: &'a [f64],
+    pub multipliers: Option<&'a [f64]>,
+    pub bound_multipliers: Option<&'a [f64]>,
+}
+
+impl<'a> Start<'a> {
+    /// A primal point only (multipliers start at zero).
+    pub fn cold(x: &'a [f64]) -> Start<'a> {
+        Start {
+            x,
+            multipliers: None,
+            bound_multipliers: None,
+        }
+    }
+
+    /// A full primal-dual point, typically an earlier solution shifted in time.
+    pub fn warm(x: &'a [f64], multipliers: &'a [f64], bound_multipliers: &'a [f64]) -> Start<'a> {
+        Start {
+            x,
+            multipliers: Some(multipliers),
+            bound_multipliers: Some(bound_multipliers),
+        }
+    }
+}
+
+/// A back-end that solves an [`Nlp`].
+pub trait Solver {
+    fn name(&self) -> &'static str;
+    /// Solves from `start`. Never panics on a bad problem; the status tells.
+    fn solve(&mut self, nlp: &mut dyn Nlp, start: Start<'_>) -> Solution;
+}

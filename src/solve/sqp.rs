@@ -1,0 +1,536 @@
+//! Sequential quadratic programming with the exact Hessian.
+//!
+//! Each iteration evaluates everything at once ([`Nlp::evaluate_all`]: one derivative
+//! sweep per stage), checks the KKT conditions, and solves a quadratic sub-problem with
+//! clarabel ([`super::qp`]):
+//!
+//! * Curvature: the exact Hessian of the Lagrangian plus a Levenberg–Marquardt term
+//!   `ρ / D²` (`D` a variable's range, so inputs in W m⁻² and in mm s⁻¹ are damped alike).
+//!   When that QP fails or its step does not descend the merit function, each diagonal
+//!   block (one stage's states and inputs) is convexified by clipping its negative
+//!   eigenvalues, and the QP is solved again. (Clipping first was tried and is worse here:
+//!   it adds curvature through the stage couplings and SQP then creeps along the flat
+//!   directions of the economic cost.)
+//! * Globalisation: the ℓ₁ merit `φ = f + μ Σ violation(g)`. A full step that fails the
+//!   Armijo test gets one second-order correction (constraints re-linearised at
+//!   `g(x + d) − J d`, against the Maratos effect of the nonlinear dynamics); if that fails
+//!   too, a trust region — a box of `radius` times the range on every variable bounded on
+//!   both sides — shrinks and the QP is solved again; a backtracking line search is the
+//!   last resort. Multipliers of an active trust-region box are not bound multipliers and
+//!   are dropped.
+//!
+//! Warm starts take a primal point and, when given, the multipliers of an earlier solve
+//! (shifted in time by the caller); from a shifted solution most MPC steps converge in
+//! two or three iterations.
+
+use super::kkt::{l1_violation, residuals_of, Bounds, PointInfo};
+use super::qp::{QpData, QpOutcome, QpSolver};
+use super::{KktResiduals, Solution, SolveStats, SolveStatus, Solver, Start};
+use crate::nlp::Nlp;
+use nalgebra::DMatrix;
+use std::ops::Range;
+use std::time::Instant;
+
+/// Tuning of [`Sqp`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct SqpOptions {
+    pub max_iterations: usize,
+    /// KKT residual (infinity norm of stationarity, feasibility, complementarity) at which
+    /// the solve is optimal.
+    pub tolerance: f64,
+    /// KKT residual accepted when the method cannot go further.
+    pub acceptable_tolerance: f64,
+    /// Levenberg–Marquardt term: `ρ / D²` is added to the Hessian's diagonal, `D` the
+    /// variable's range (see [`super::KktResiduals::stationarity`]).
+    pub levenberg_marquardt: f64,
+    /// Sufficient-decrease fraction of the Armijo rule.
+    pub armijo: f64,
+    /// Smallest step length tried by the line search.
+    pub min_step: f64,
+    /// QP solves per iteration with a shrinking trust region before falling back to a
+    /// line search.
+    pub trust_region_tries: usize,
+    /// Print one line per iteration to standard error.
+    pub trace: bool,
+}
+
+impl Default for SqpOptions {
+    fn default() -> Self {
+        SqpOptions {
+            max_iterations: 100,
+            tolerance: 1e-8,
+            acceptable_tolerance: 1e-6,
+            levenberg_marquardt: 1e-6,
+            armijo: 1e-4,
+            min_step: 1e-8,
+            trust_region_tries: 6,
+            trace: false,
+        }
+    }
+}
+
+/// The pure-Rust SQP back-end.
+pub struct Sqp {
+    pub options: SqpOptions,
+    qp: Option<QpSolver>,
+    work: Work,
+}
+
+/// Buffers reused across iterations and solves.
+#[derive(Default)]
+struct Work {
+    g: Vec<f64>,
+    gradient: Vec<f64>,
+    jacobian: Vec<f64>,
+    hessian: Vec<f64>,
+    trial_x: Vec<f64>,
+    trial_g: Vec<f64>,
+    scratch: Vec<f64>,
+    blocks: Vec<DMatrix<f64>>,
+    block_ranges: Vec<Range<usize>>,
+    tr_lower: Vec<f64>,
+    tr_upper: Vec<f64>,
+    step: Vec<f64>,
+    dir_lambda: Vec<f64>,
+    dir_nu: Vec<f64>,
+    corrected_g: Vec<f64>,
+    /// For each Hessian entry, its block and position in the block.
+    entry_place: Vec<(usize, usize, usize)>,
+}
+
+impl Default for Sqp {
+    fn default() -> Self {
+        Sqp::new(SqpOptions::default())
+    }
+}
+
+impl Sqp {
+    pub fn new(options: SqpOptions) -> Sqp {
+        Sqp {
+            options,
+            qp: None,
+            work: Work::default(),
+        }
+    }
+
+    /// Sizes the buffers and the QP workspace for `nlp` (reused when nothing changed).
+    fn prepare(&mut self, nlp: &dyn Nlp, bounds: &Bounds) -> Result<(), SolveStatus> {
+        let (n, m) = (nlp.n_vars(), nlp.n_cons());
+        let w = &mut self.work;
+        let jp = nlp.jacobian_pattern();
+        let hp = nlp.hessian_pattern();
+        w.g.resize(m, 0.0);
+        w.trial_g.resize(m, 0.0);
+        w.gradient.resize(n, 0.0);
+        w.trial_x.resize(n, 0.0);
+        w.scratch.resize(n, 0.0);
+        w.tr_lower.resize(n, 0.0);
+        w.tr_upper.resize(n, 0.0);
+        w.step.resize(n, 0.0);
+        w.dir_nu.resize(n, 0.0);
+        w.dir_lambda.resize(m, 0.0);
+        w.corrected_g.resize(m, 0.0);
+        w.jacobian.resize(jp.len(), 0.0);
+        w.hessian.resize(hp.len(), 0.0);
+        let blocks = nlp.hessian_blocks();
+        w.blocks = blocks
+            .iter()
+            .map(|r| DMatrix::zeros(r.len(), r.len()))
+            .collect();
+        w.block_ranges = blocks.clone();
+        w.entry_place.clear();
+        for (&r, &c) in hp.rows.iter().zip(&hp.cols) {
+            let b = find_block(&blocks, r, c).ok_or(SolveStatus::InvalidNumber)?;
+            let start = blocks[b].start;
+            w.entry_place.push((b, r - start, c - start));
+        }
+        let b = (
+            &bounds.x_lower[..],
+            &bounds.x_upper[..],
+            &bounds.g_lower[..],
+            &bounds.g_upper[..],
+        );
+        let fits = self.qp.as_ref().is_some_and(|qp| qp.fits(b));
+        if !fits {
+            self.qp = Some(QpSolver::new(n, blocks, &jp.rows, &jp.cols, b));
+        }
+        Ok(())
+    }
+
+    /// Fills the Hessian blocks from the Hessian values, with the Levenberg–Marquardt term,
+    /// and with negative curvature clipped when `convexify` is set.
+    fn fill_blocks(&mut self, convexify: bool, scale: &[f64]) {
+        let w = &mut self.work;
+        for m in &mut w.blocks {
+            m.fill(0.0);
+        }
+        for (&(b, r, c), &v) in w.entry_place.iter().zip(&w.hessian) {
+            w.blocks[b][(r, c)] = v;
+            w.blocks[b][(c, r)] = v;
+        }
+        let rho = self.options.levenberg_marquardt;
+        for (m, range) in w.blocks.iter_mut().zip(&w.block_ranges) {
+            if convexify {
+                clip_negative_curvature(m);
+            }
+            for (i, v) in range.clone().enumerate() {
+                m[(i, i)] += rho / (scale[v] * scale[v]);
+            }
+        }
+    }
+
+    /// Solves the QP at `x`; with `corrected_g`, the second-order correction QP whose
+    /// constraints are linearised around `g(x + d) − J d`.
+    fn solve_qp(
+        &mut self,
+        x: &[f64],
+        bounds: &Bounds,
+        radius: f64,
+        corrected_g: Option<&[f64]>,
+    ) -> QpOutcome {
+        let w = &mut self.work;
+        let Some(qp) = self.qp.as_mut() else {
+            return QpOutcome::Failed;
+        };
+        // The trust region: a box on the step of every variable bounded on both sides,
+        // `radius` times its range.
+        for (i, &xi) in x.iter().enumerate() {
+            let (lo, hi) = (bounds.x_lower[i], bounds.x_upper[i]);
+            let range = hi - lo;
+            if range.is_finite() && radius < 1.0 {
+                w.tr_lower[i] = lo.max(xi - radius * range);
+                w.tr_upper[i] = hi.min(xi + radius * range);
+            } else {
+                w.tr_lower[i] = lo;
+                w.tr_upper[i] = hi;
+            }
+        }
+        qp.solve(&QpData {
+            blocks: &w.blocks,
+            diagonal: self.options.levenberg_marquardt,
+            gradient: &w.gradient,
+            jacobian: &w.jacobian,
+            g: corrected_g.unwrap_or(&w.g),
+            x,
+            x_lower: &w.tr_lower,
+            x_upper: &w.tr_upper,
+            g_lower: &bounds.g_lower,
+            g_upper: &bounds.g_upper,
+        })
+    }
+
+    /// Largest step relative to the range, over variables bounded on both sides.
+    fn scaled_step(&self, bounds: &Bounds, d: &[f64]) -> f64 {
+        d.iter()
+            .zip(bounds.x_lower.iter().zip(&bounds.x_upper))
+            .filter(|(_, (lo, hi))| (*hi - *lo).is_finite())
+            .fold(0.0, |a, (d, (lo, hi))| {
+                a.max(d.abs() / (hi - lo).max(1e-300))
+            })
+    }
+
+    /// A QP direction at `x` within `radius`: from the exact Hessian when clarabel solves
+    /// that QP and its step descends the merit, else from the convexified Hessian. Returns the merit slope; fills `step`, `dir_*` and raises `penalty`.
+    fn direction(
+        &mut self,
+        x: &[f64],
+        bounds: &Bounds,
+        radius: f64,
+        violation: f64,
+        penalty: &mut f64,
+    ) -> Result<f64, QpOutcome> {
+        let mut result = Err(QpOutcome::Failed);
+        for convexify in [false, true] {
+            self.fill_blocks(convexify, &bounds.scale);
+            let outcome = self.solve_qp(x, bounds, radius, None);
+            if outcome != QpOutcome::Solved {
+                result = Err(outcome);
+                continue;
+            }
+            let Some(qp) = self.qp.as_ref() else { break };
+            let w = &mut self.work;
+            w.step.copy_from_slice(&qp.step);
+            w.dir_lambda.copy_from_slice(&qp.multipliers);
+            w.dir_nu.copy_from_slice(&qp.bound_multipliers);
+            let norm = w.dir_lambda.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
+            if *penalty < 1.1 * norm {
+                *penalty = 2.0 * norm;
+            }
+            let gd: f64 = w.gradient.iter().zip(&w.step).map(|(g, d)| g * d).sum();
+            let slope = gd - *penalty * violation;
+            if convexify || slope < 0.0 {
+                return Ok(slope);
+            }
+            result = Ok(slope);
+        }
+        result
+    }
+
+    /// Merit of a trial point `x + d` (projected into the bounds); fills `trial_x`, `trial_g`.
+    fn trial_merit(
+        &mut self,
+        nlp: &mut dyn Nlp,
+        x: &[f64],
+        d: &[f64],
+        alpha: f64,
+        bounds: &Bounds,
+        penalty: f64,
+    ) -> f64 {
+        let w = &mut self.work;
+        for ((t, &xi), &di) in w.trial_x.iter_mut().zip(x).zip(d) {
+            *t = xi + alpha * di;
+        }
+        project_into(&mut w.trial_x, bounds);
+        let f = nlp.objective(&w.trial_x);
+        nlp.constraints(&w.trial_x, &mut w.trial_g);
+        let merit = f + penalty * l1_violation(&w.trial_g, bounds);
+        if merit.is_finite() {
+            merit
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
+/// `H ← V max(Λ, 0) Vᵀ`, skipping the eigen-decomposition when a Cholesky factorisation
+/// shows `H` positive definite already.
+fn clip_negative_curvature(m: &mut DMatrix<f64>) {
+    if m.nrows() == 0 || m.clone().cholesky().is_some() {
+        return;
+    }
+    let eig = m.clone().symmetric_eigen();
+    let clipped = eig.eigenvalues.map(|l| l.max(0.0));
+    *m = &eig.eigenvectors * DMatrix::from_diagonal(&clipped) * eig.eigenvectors.transpose();
+}
+
+fn find_block(blocks: &[Range<usize>], r: usize, c: usize) -> Option<usize> {
+    blocks.iter().position(|b| b.contains(&r) && b.contains(&c))
+}
+
+fn project_into(x: &mut [f64], bounds: &Bounds) {
+    for ((v, &lo), &hi) in x.iter_mut().zip(&bounds.x_lower).zip(&bounds.x_upper) {
+        *v = v.max(lo).min(hi);
+    }
+}
+
+fn all_finite(values: &[f64]) -> bool {
+    values.iter().all(|v| v.is_finite())
+}
+
+impl Solver for Sqp {
+    fn name(&self) -> &'static str {
+        "sqp"
+    }
+
+    fn solve(&mut self, nlp: &mut dyn Nlp, start: Start<'_>) -> Solution {
+        let clock = Instant::now();
+        let (n, m) = (nlp.n_vars(), nlp.n_cons());
+        let bounds = Bounds::of(nlp);
+        let mut x = start.x.to_vec();
+        x.resize(n, 0.0);
+        project_into(&mut x, &bounds);
+        let mut lambda = start.multipliers.map_or(vec![0.0; m], <[f64]>::to_vec);
+        let mut nu = start
+            .bound_multipliers
+            .map_or(vec![0.0; n], <[f64]>::to_vec);
+        lambda.resize(m, 0.0);
+        nu.resize(n, 0.0);
+        let finish = |status, iterations, objective, kkt, x, lambda, nu| Solution {
+            status,
+            x,
+            multipliers: lambda,
+            bound_multipliers: nu,
+            stats: SolveStats {
+                iterations,
+                time_s: clock.elapsed().as_secs_f64(),
+                objective,
+                kkt,
+            },
+        };
+        if let Err(status) = self.prepare(nlp, &bounds) {
+            return finish(status, 0, f64::NAN, KktResiduals::default(), x, lambda, nu);
+        }
+        let options = self.options.clone();
+        let mut penalty = 0.0_f64;
+        let mut objective = f64::NAN;
+        let mut kkt = KktResiduals::default();
+        for iteration in 0..=options.max_iterations {
+            let w = &mut self.work;
+            objective = nlp.evaluate_all(
+                &x,
+                1.0,
+                &lambda,
+                &mut w.g,
+                &mut w.gradient,
+                &mut w.jacobian,
+                &mut w.hessian,
+            );
+            let finite = objective.is_finite()
+                && all_finite(&w.g)
+                && all_finite(&w.gradient)
+                && all_finite(&w.jacobian)
+                && all_finite(&w.hessian);
+            if !finite {
+                return finish(
+                    SolveStatus::InvalidNumber,
+                    iteration,
+                    objective,
+                    kkt,
+                    x,
+                    lambda,
+                    nu,
+                );
+            }
+            let point = PointInfo {
+                x: &x,
+                g: &w.g,
+                gradient: &w.gradient,
+                jacobian: &w.jacobian,
+                multipliers: &lambda,
+                bound_multipliers: &nu,
+            };
+            kkt = residuals_of(&point, nlp.jacobian_pattern(), &bounds, &mut w.scratch);
+            if kkt.max() <= options.tolerance {
+                return finish(
+                    SolveStatus::Optimal,
+                    iteration,
+                    objective,
+                    kkt,
+                    x,
+                    lambda,
+                    nu,
+                );
+            }
+            if iteration == options.max_iterations {
+                break;
+            }
+            let violation = l1_violation(&self.work.g, &bounds);
+            let merit = objective + penalty * violation;
+            // Every iteration first tries the plain QP step.
+            let mut radius: f64 = 1.0;
+            // Trust-region loop: a rejected full step shrinks the box on the inputs and
+            // the QP is solved again; a full step that reaches the box widens it.
+            let mut accepted = false;
+            let mut alpha = 1.0;
+            let mut slope = 0.0;
+            let mut failure = QpOutcome::Failed;
+            let mut have_direction = false;
+            for _ in 0..options.trust_region_tries {
+                match self.direction(&x, &bounds, radius, violation, &mut penalty) {
+                    Ok(s) => slope = s,
+                    Err(outcome) => {
+                        failure = outcome;
+                        break;
+                    }
+                }
+                have_direction = true;
+                let sufficient = |alpha: f64, trial: f64| {
+                    trial <= merit + options.armijo * alpha * slope.min(0.0)
+                };
+                let step = self.work.step.clone();
+                let full = self.trial_merit(nlp, &x, &step, 1.0, &bounds, penalty);
+                let size = self.scaled_step(&bounds, &step);
+                if sufficient(1.0, full) {
+                    accepted = true;
+                    if size >= 0.5 * radius {
+                        radius = (2.0 * radius).min(1.0);
+                    }
+                    break;
+                }
+                // Second-order correction: linearise the constraints around g(x + d) − J d.
+                let w = &mut self.work;
+                w.corrected_g.copy_from_slice(&w.trial_g);
+                let pattern = nlp.jacobian_pattern();
+                for ((&r, &c), &v) in pattern.rows.iter().zip(&pattern.cols).zip(&w.jacobian) {
+                    w.corrected_g[r] -= v * step[c];
+                }
+                let corrected = w.corrected_g.clone();
+                if self.solve_qp(&x, &bounds, radius, Some(&corrected)) == QpOutcome::Solved {
+                    if let Some(qp) = self.qp.as_ref() {
+                        let soc = qp.step.clone();
+                        let (l, v) = (qp.multipliers.clone(), qp.bound_multipliers.clone());
+                        if sufficient(1.0, self.trial_merit(nlp, &x, &soc, 1.0, &bounds, penalty)) {
+                            self.work.dir_lambda.copy_from_slice(&l);
+                            self.work.dir_nu.copy_from_slice(&v);
+                            accepted = true;
+                            break;
+                        }
+                    }
+                }
+                if size <= 1e-12 {
+                    break;
+                }
+                radius = 0.3 * size;
+            }
+            if !have_direction {
+                let status = if kkt.max() <= options.acceptable_tolerance {
+                    SolveStatus::Acceptable
+                } else if failure == QpOutcome::Infeasible {
+                    SolveStatus::Infeasible
+                } else {
+                    SolveStatus::NumericalError
+                };
+                return finish(status, iteration, objective, kkt, x, lambda, nu);
+            }
+            // Backtracking along the last direction when the trust region did not help.
+            let step = self.work.step.clone();
+            while !accepted {
+                alpha *= 0.5;
+                if alpha < options.min_step {
+                    break;
+                }
+                let trial = self.trial_merit(nlp, &x, &step, alpha, &bounds, penalty);
+                accepted = trial <= merit + options.armijo * alpha * slope.min(0.0);
+            }
+            if !accepted {
+                let status = if kkt.max() <= options.acceptable_tolerance {
+                    SolveStatus::Acceptable
+                } else {
+                    SolveStatus::NumericalError
+                };
+                return finish(status, iteration, objective, kkt, x, lambda, nu);
+            }
+            if options.trace {
+                eprintln!(
+                    "sqp {iteration:3} f {objective:.12e} kkt {:.1e} {:.1e} {:.1e} alpha {alpha:.3} radius {radius:.2e}",
+                    kkt.stationarity, kkt.primal, kkt.complementarity
+                );
+            }
+            let w = &mut self.work;
+            // Multipliers of the trust-region box are not multipliers of the bounds.
+            if radius < 1.0 && alpha == 1.0 {
+                for (i, v) in w.dir_nu.iter_mut().enumerate() {
+                    let t = w.trial_x[i];
+                    let tolerance = 1e-6 * bounds.scale[i];
+                    let ranged = (bounds.x_upper[i] - bounds.x_lower[i]).is_finite();
+                    let at_bound = (bounds.x_upper[i] - t).abs() <= tolerance
+                        || (t - bounds.x_lower[i]).abs() <= tolerance;
+                    if ranged && !at_bound {
+                        *v = 0.0;
+                    }
+                }
+            }
+            x.copy_from_slice(&w.trial_x);
+            for (l, &q) in lambda.iter_mut().zip(&w.dir_lambda) {
+                *l += alpha * (q - *l);
+            }
+            for (v, &q) in nu.iter_mut().zip(&w.dir_nu) {
+                *v += alpha * (q - *v);
+            }
+        }
+        let status = if kkt.max() <= options.acceptable_tolerance {
+            SolveStatus::Acceptable
+        } else {
+            SolveStatus::MaxIterations
+        };
+        finish(
+            status,
+            options.max_iterations,
+            objective,
+            kkt,
+            x,
+            lambda,
+            nu,
+        )
+    }
+}

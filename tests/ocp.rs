@@ -1,0 +1,125 @@
+//! The optimal-control transcription: sizes, patterns and exact derivatives checked against
+//! finite differences of its own function values (built-in model files, no ../shared).
+
+use ghm::model::Plant;
+use ghm::nlp::{Nlp, Ocp};
+use std::path::Path;
+use std::sync::Arc;
+
+fn plant(file: &str) -> Arc<Plant> {
+    let model = ghm::lang::load(Path::new(file)).unwrap_or_else(|e| panic!("{}", e.render()));
+    Arc::new(Plant::new(model))
+}
+
+/// A point away from the bounds, with every soft band active somewhere.
+fn problem(horizon: usize) -> (Ocp, Vec<f64>, Vec<f64>) {
+    let plant = plant("models/lettuce.ghm");
+    let mut ocp = Ocp::new(plant.clone(), horizon).unwrap();
+    let nd = plant.layout.nd;
+    let forecast: Vec<f64> = (0..horizon)
+        .flat_map(|j| [20.0 + 10.0 * j as f64, 7e-4, 6.0 + j as f64, 0.006])
+        .collect();
+    assert_eq!(forecast.len(), horizon * nd);
+    let x0 = plant.model.initial_state();
+    ocp.set_problem(0, &x0, &[0.5, 1.0, 60.0], &forecast)
+        .unwrap();
+    let inputs: Vec<f64> = (0..horizon)
+        .flat_map(|j| [0.4 + 0.05 * j as f64, 1.5, 55.0 + j as f64])
+        .collect();
+    let mut x = vec![0.0; ocp.n_vars()];
+    ocp.rollout(&inputs, &mut x);
+    // Off the dynamics manifold, so every row has a non-trivial value.
+    for (i, v) in x.iter_mut().enumerate() {
+        *v *= 1.0 + 1e-3 * ((i % 7) as f64 - 3.0);
+    }
+    let multipliers: Vec<f64> = (0..ocp.n_cons())
+        .map(|i| 0.3 + 0.1 * (i % 5) as f64)
+        .collect();
+    (ocp, x, multipliers)
+}
+
+fn dense(pattern: &ghm::nlp::Pattern, values: &[f64], rows: usize, cols: usize) -> Vec<f64> {
+    let mut m = vec![0.0; rows * cols];
+    for ((&r, &c), &v) in pattern.rows.iter().zip(&pattern.cols).zip(values) {
+        m[r * cols + c] += v;
+    }
+    m
+}
+
+fn step_size(v: f64) -> f64 {
+    1e-6 * v.abs().max(1e-3)
+}
+
+#[test]
+fn gradient_and_jacobian_match_central_differences() {
+    let (mut ocp, x, _) = problem(3);
+    let (n, m) = (ocp.n_vars(), ocp.n_cons());
+    let mut grad = vec![0.0; n];
+    ocp.gradient(&x, &mut grad);
+    let pattern = ocp.jacobian_pattern().clone();
+    let mut jac = vec![0.0; pattern.len()];
+    ocp.jacobian_values(&x, &mut jac);
+    let jac = dense(&pattern, &jac, m, n);
+    for i in 0..n {
+        let h = step_size(x[i]);
+        let (mut xp, mut xm) = (x.clone(), x.clone());
+        xp[i] += h;
+        xm[i] -= h;
+        let df = (ocp.objective(&xp) - ocp.objective(&xm)) / (2.0 * h);
+        assert!(
+            (df - grad[i]).abs() <= 1e-6 * (1.0 + df.abs()),
+            "∂f/∂x{i}: {df} vs {}",
+            grad[i]
+        );
+        let (mut gp, mut gm) = (vec![0.0; m], vec![0.0; m]);
+        ocp.constraints(&xp, &mut gp);
+        ocp.constraints(&xm, &mut gm);
+        for r in 0..m {
+            let d = (gp[r] - gm[r]) / (2.0 * h);
+            let e = jac[r * n + i];
+            assert!(
+                (d - e).abs() <= 1e-5 * (1.0 + d.abs()),
+                "∂g{r}/∂x{i}: {d} vs {e}"
+            );
+        }
+    }
+}
+
+#[test]
+fn hessian_matches_differences_of_the_lagrangian_gradient() {
+    let (mut ocp, x, lambda) = problem(3);
+    let n = ocp.n_vars();
+    let sigma = 0.7;
+    let pattern = ocp.hessian_pattern().clone();
+    let mut hv = vec![0.0; pattern.len()];
+    ocp.hessian_values(&x, sigma, &lambda, &mut hv);
+    let lower = dense(&pattern, &hv, n, n);
+    let jp = ocp.jacobian_pattern().clone();
+    let grad_l = |ocp: &mut Ocp, x: &[f64]| {
+        let mut g = vec![0.0; n];
+        ocp.gradient(x, &mut g);
+        g.iter_mut().for_each(|v| *v *= sigma);
+        let mut j = vec![0.0; jp.len()];
+        ocp.jacobian_values(x, &mut j);
+        for ((&r, &c), &v) in jp.rows.iter().zip(&jp.cols).zip(&j) {
+            g[c] += lambda[r] * v;
+        }
+        g
+    };
+
+    for i in 0..n {
+        let h = step_size(x[i]);
+        let (mut xp, mut xm) = (x.clone(), x.clone());
+        xp[i] += h;
+        xm[i] -= h;
+        let (gp, gm) = (grad_l(&mut ocp, &xp), grad_l(&mut ocp, &xm));
+        for r in i..n {
+            let d = (gp[r] - gm[r]) / (2.0 * h);
+            let e = lower[r * n + i];
+            assert!(
+                (d - e).abs() <= 1e-4 * (1.0 + d.abs()),
+                "H[{r},{i}]: {d} vs {e}"
+            );
+        }
+    }
+}
