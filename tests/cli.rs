@@ -105,3 +105,55 @@ fn bad_arguments_and_files_give_messages_not_panics() {
         assert!(!err.contains("panicked"), "{args:?}: {err}");
     }
 }
+
+#[test]
+fn mpc_runs_on_builtin_weather_and_reports_solver_statistics() {
+    let dir = temp_dir("mpc");
+    let d = dir.to_str().expect("utf-8 temp path");
+    let (ok, out, err) = ghm(&[
+        "mpc",
+        "models/lettuce.ghm",
+        "--days",
+        "1",
+        "--horizon",
+        "1h",
+        "--out",
+        d,
+    ]);
+    assert!(ok, "{err}");
+    assert!(
+        out.contains("cumulative reward") && out.contains("failed solves"),
+        "{out}"
+    );
+    let csv = std::fs::read_to_string(dir.join("trajectory.csv")).expect("trajectory.csv");
+    let header = csv.lines().next().unwrap_or_default();
+    for column in ["solve_ms", "iterations", "status", "fallback"] {
+        assert!(header.contains(column), "{header}");
+    }
+    assert!(csv
+        .lines()
+        .skip(1)
+        .all(|l| l.contains(",optimal,") || l.contains(",acceptable,") || l.contains("fallback")));
+    let summary: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.join("summary.json")).expect("summary.json"),
+    )
+    .expect("JSON");
+    assert_eq!(summary["horizon_steps"], 2);
+    let solve = &summary["metrics"]["solve"];
+    assert!(
+        solve["median_ms"].as_f64().is_some_and(|v| v > 0.0),
+        "{solve}"
+    );
+    assert!(solve["max_ms"].as_f64() >= solve["p95_ms"].as_f64());
+    assert_eq!(solve["failed_solves"], 0, "{solve}");
+}
+
+#[test]
+fn mpc_rejects_bad_horizons_with_a_message() {
+    for bad in ["0h", "45min", "soon"] {
+        let (ok, _, err) = ghm(&["mpc", "models/lettuce.ghm", "--horizon", bad]);
+        assert!(!ok);
+        assert!(err.contains("--horizon"), "{err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+}

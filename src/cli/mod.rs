@@ -3,6 +3,7 @@
 //! panics on user input.
 
 mod check;
+mod mpc;
 mod output;
 mod simulate;
 mod weather_args;
@@ -49,6 +50,8 @@ enum Command {
     Check(check::CheckArgs),
     /// Run a season with fixed inputs or inputs from a CSV file.
     Simulate(simulate::SimulateArgs),
+    /// Run a season of economic MPC.
+    Mpc(mpc::MpcArgs),
 }
 
 /// Runs the command line; returns the process exit code.
@@ -57,6 +60,7 @@ pub fn main() -> i32 {
     let result = match cli.command {
         Command::Check(a) => check::run(&a),
         Command::Simulate(a) => simulate::run(&a),
+        Command::Mpc(a) => mpc::run(&a),
     };
     match result {
         Ok(()) => 0,

@@ -81,25 +81,58 @@ fn parse_inputs(spec: Option<&str>, plant: &Plant) -> Result<Box<dyn Controller>
 }
 
 pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
+    let model = load_model(&args.file)?;
+    let plant = Plant::new(model);
+    let mut controller = parse_inputs(args.inputs.as_deref(), &plant)?;
+    let season = SeasonArgs {
+        file: &args.file,
+        weather: &args.weather,
+        uncertainty: args.uncertainty,
+        seed: args.seed,
+        out: &args.out,
+        enforce_limits: !args.no_rate_limit,
+        forecast: 0,
+    };
+    run_season_and_report(&season, &plant, controller.as_mut(), json!({}))?;
+    Ok(())
+}
+
+/// What every season command shares.
+pub(crate) struct SeasonArgs<'a> {
+    pub file: &'a Path,
+    pub weather: &'a WeatherArgs,
+    pub uncertainty: f64,
+    pub seed: u64,
+    pub out: &'a Path,
+    pub enforce_limits: bool,
+    /// Steps of weather needed beyond the season (a controller's horizon).
+    pub forecast: usize,
+}
+
+/// Runs a season of `controller`, streaming `trajectory.csv`, then writes `summary.json`
+/// (with `extra` merged in) and `trajectory.png` and prints the figures.
+pub(crate) fn run_season_and_report(
+    args: &SeasonArgs,
+    plant: &Plant,
+    controller: &mut dyn Controller,
+    extra: serde_json::Value,
+) -> Result<crate::sim::metrics::Metrics, CliError> {
     if !(args.uncertainty >= 0.0 && args.uncertainty < 1.0) {
         return Err(CliError::Argument("--uncertainty must be in [0, 1)".into()));
     }
-    let model = load_model(&args.file)?;
-    let plant = Plant::new(model);
     let steps = args.weather.steps(&plant.model)?;
-    let weather = args.weather.load(&plant.model, steps, 0)?;
-    let mut controller = parse_inputs(args.inputs.as_deref(), &plant)?;
-    create_dir(&args.out)?;
+    let weather = args.weather.load(&plant.model, steps, args.forecast)?;
+    create_dir(args.out)?;
     let config = SeasonConfig {
         steps,
-        enforce_limits: !args.no_rate_limit,
+        enforce_limits: args.enforce_limits,
         uncertainty: (args.uncertainty > 0.0).then_some(UncertaintyDraw {
             delta: args.uncertainty,
             seed: args.seed,
         }),
     };
-    let mut writer = TrajectoryWriter::create(&args.out, &plant, steps)?;
-    let result = run_season(&plant, &weather, controller.as_mut(), &config, &mut writer);
+    let mut writer = TrajectoryWriter::create(args.out, plant, steps)?;
+    let result = run_season(plant, &weather, controller, &config, &mut writer);
     writer.finish()?;
     let result = result?;
     let m = &result.metrics;
@@ -111,22 +144,23 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
         args.weather.describe()
     );
     print_metrics(m);
-    write_summary(
-        &args.out,
-        &json!({
-            "command": std::env::args().collect::<Vec<_>>(),
-            "model": args.file.display().to_string(),
-            "model_sha256": model_hash(&plant),
-            "weather": args.weather.describe(),
-            "controller": controller.name(),
-            "uncertainty": args.uncertainty,
-            "seed": args.seed,
-            "metrics": m,
-        }),
-    )?;
+    let mut summary = json!({
+        "command": std::env::args().collect::<Vec<_>>(),
+        "model": args.file.display().to_string(),
+        "model_sha256": model_hash(plant),
+        "weather": args.weather.describe(),
+        "controller": controller.name(),
+        "uncertainty": args.uncertainty,
+        "seed": args.seed,
+        "metrics": m,
+    });
+    if let (Some(map), serde_json::Value::Object(more)) = (summary.as_object_mut(), extra) {
+        map.extend(more);
+    }
+    write_summary(args.out, &summary)?;
     plot_trajectory(
-        &args.out,
-        &plant,
+        args.out,
+        plant,
         &writer.logs,
         &format!("{} — {}", plant.model.name, controller.name()),
     )?;
@@ -134,7 +168,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
         "wrote {}/trajectory.csv, summary.json, trajectory.png",
         args.out.display()
     );
-    Ok(())
+    Ok(result.metrics)
 }
 
 /// Prints the season figures.
@@ -148,4 +182,15 @@ pub fn print_metrics(m: &crate::sim::metrics::Metrics) {
         );
     }
     println!("  cumulative reward {:+.4} EUR/m2", m.cumulative_reward);
+    let s = &m.solve;
+    if s.max_ms > 0.0 {
+        println!(
+            "  solve time        median {:.3} ms, p95 {:.3} ms, max {:.3} ms; {:.2} iterations per step",
+            s.median_ms, s.p95_ms, s.max_ms, s.mean_iterations
+        );
+        println!(
+            "  failed solves     {} ({} steps took a fallback)",
+            s.failed_solves, s.fallbacks
+        );
+    }
 }

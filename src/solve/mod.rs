@@ -17,8 +17,14 @@ mod kkt;
 mod qp;
 mod sqp;
 
+#[cfg(feature = "ipopt")]
+mod ipopt;
+
 pub use kkt::{kkt_residuals, KktResiduals};
 pub use sqp::{Sqp, SqpOptions};
+
+#[cfg(feature = "ipopt")]
+pub use ipopt::{Ipopt, IpoptOptions};
 
 use crate::nlp::Nlp;
 use serde::Serialize;

@@ -1,0 +1,131 @@
+//! `ghm mpc`: a season of economic MPC.
+
+use crate::cli::simulate::{run_season_and_report, SeasonArgs};
+use crate::cli::weather_args::WeatherArgs;
+use crate::cli::{load_model, CliError};
+use crate::control::Mpc;
+use crate::model::Plant;
+use crate::solve::{Solver, Sqp};
+use clap::{Args, ValueEnum};
+use serde_json::json;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// The NLP back-ends.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum SolverChoice {
+    /// Pure-Rust SQP with clarabel sub-problems (default).
+    Sqp,
+    /// The system's IPOPT (needs a build with `--features ipopt`).
+    Ipopt,
+}
+
+#[derive(Debug, Args)]
+pub struct MpcArgs {
+    /// The model file (.ghm).
+    pub file: PathBuf,
+    /// Prediction horizon: `3h`, `90min`, or a number of steps.
+    #[arg(long, value_name = "H", default_value = "3h")]
+    pub horizon: String,
+    /// NLP back-end.
+    #[arg(long, value_enum, default_value_t = SolverChoice::Sqp)]
+    pub solver: SolverChoice,
+    #[command(flatten)]
+    pub weather: WeatherArgs,
+    /// Parametric uncertainty δ of the plant (the controller predicts with nominal values).
+    #[arg(long, value_name = "DELTA", default_value_t = 0.0)]
+    pub uncertainty: f64,
+    /// Seed of the parameter draws.
+    #[arg(long, value_name = "S", default_value_t = 4)]
+    pub seed: u64,
+    /// Run folder for trajectory.csv, summary.json and trajectory.png.
+    #[arg(long, value_name = "DIR", default_value = "runs/mpc")]
+    pub out: PathBuf,
+}
+
+/// Steps of a horizon given as `3h`, `90min`, `5400s` or a plain number of steps.
+pub fn parse_horizon(text: &str, sample_period_s: f64) -> Result<usize, CliError> {
+    let t = text.trim();
+    let seconds = if let Some(h) = t.strip_suffix('h') {
+        h.trim().parse::<f64>().ok().map(|v| v * 3600.0)
+    } else if let Some(m) = t.strip_suffix("min") {
+        m.trim().parse::<f64>().ok().map(|v| v * 60.0)
+    } else if let Some(s) = t.strip_suffix('s') {
+        s.trim().parse::<f64>().ok()
+    } else {
+        t.parse::<usize>().ok().map(|n| n as f64 * sample_period_s)
+    };
+    let bad = || {
+        CliError::Argument(format!(
+            "--horizon {text}: expected a duration such as 3h or 90min, or a number of steps, \
+             of at least one sample period ({sample_period_s} s)"
+        ))
+    };
+    let seconds = seconds
+        .filter(|s| s.is_finite() && *s > 0.0)
+        .ok_or_else(bad)?;
+    let steps = (seconds / sample_period_s).round();
+    if steps < 1.0 || (steps * sample_period_s - seconds).abs() > 1e-6 * seconds {
+        return Err(bad());
+    }
+    Ok(steps as usize)
+}
+
+/// The chosen back-end, or a message saying how to get it.
+pub fn make_solver(choice: SolverChoice) -> Result<Box<dyn Solver>, CliError> {
+    match choice {
+        SolverChoice::Sqp => Ok(Box::new(Sqp::default())),
+        #[cfg(feature = "ipopt")]
+        SolverChoice::Ipopt => Ok(Box::new(crate::solve::Ipopt::new(
+            crate::solve::IpoptOptions::default(),
+        ))),
+        #[cfg(not(feature = "ipopt"))]
+        SolverChoice::Ipopt => Err(CliError::Argument(
+            "--solver ipopt needs a build with the IPOPT back-end: install IPOPT \
+             (Debian: coinor-libipopt-dev) and build with `cargo build --release --features ipopt`"
+                .into(),
+        )),
+    }
+}
+
+pub fn run(args: &MpcArgs) -> Result<(), CliError> {
+    let model = load_model(&args.file)?;
+    let plant = Arc::new(Plant::new(model));
+    let horizon = parse_horizon(&args.horizon, plant.model.sample_period)?;
+    let solver = make_solver(args.solver)?;
+    let mut mpc =
+        Mpc::new(plant.clone(), horizon, solver).map_err(|e| CliError::Argument(e.to_string()))?;
+    let season = SeasonArgs {
+        file: &args.file,
+        weather: &args.weather,
+        uncertainty: args.uncertainty,
+        seed: args.seed,
+        out: &args.out,
+        enforce_limits: true,
+        forecast: horizon,
+    };
+    run_season_and_report(
+        &season,
+        &plant,
+        &mut mpc,
+        json!({ "horizon_steps": horizon, "horizon_h": horizon as f64 * plant.model.sample_period / 3600.0 }),
+    )?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_horizon;
+
+    #[test]
+    fn horizons_parse_in_hours_minutes_seconds_and_steps() {
+        assert_eq!(parse_horizon("3h", 1800.0).unwrap(), 6);
+        assert_eq!(parse_horizon("90min", 1800.0).unwrap(), 3);
+        assert_eq!(parse_horizon("1800s", 1800.0).unwrap(), 1);
+        assert_eq!(parse_horizon("4", 1800.0).unwrap(), 4);
+        assert_eq!(parse_horizon("0.5h", 1800.0).unwrap(), 1);
+        for bad in ["0h", "45min", "-1h", "abc", "", "1.5"] {
+            assert!(parse_horizon(bad, 1800.0).is_err(), "{bad}");
+        }
+    }
+}
