@@ -9,9 +9,8 @@ use ghm::solve::{kkt_residuals, Solver, Sqp, Start};
 
 #[test]
 fn shared_sqp_solutions_satisfy_kkt_at_ten_steps_of_the_season() {
-    // Cold starts from open-loop states. (The paper variant's 6 h problem at step 1900
-    // from this state is a known hard case for SQP: see docs/benchmarks.md.)
-    for file in ["models/lettuce-thesis.ghm"] {
+    // Cold starts (the previous input held) from open-loop states.
+    for file in ["models/lettuce-thesis.ghm", "models/lettuce.ghm"] {
         let plant = plant(file);
         let weather = venlo(&plant, 1920 + 12);
         let states = states_along_season(&plant, &weather, &STEPS);

@@ -4,6 +4,7 @@
 
 mod check;
 mod mpc;
+mod optimum;
 mod output;
 mod simulate;
 mod weather_args;
@@ -52,6 +53,8 @@ enum Command {
     Simulate(simulate::SimulateArgs),
     /// Run a season of economic MPC.
     Mpc(mpc::MpcArgs),
+    /// Solve the whole season as one NLP with perfect foresight: the upper bound.
+    Optimum(optimum::OptimumArgs),
 }
 
 /// Runs the command line; returns the process exit code.
@@ -61,6 +64,7 @@ pub fn main() -> i32 {
         Command::Check(a) => check::run(&a),
         Command::Simulate(a) => simulate::run(&a),
         Command::Mpc(a) => mpc::run(&a),
+        Command::Optimum(a) => optimum::run(&a),
     };
     match result {
         Ok(()) => 0,

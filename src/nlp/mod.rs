@@ -15,7 +15,7 @@
 mod ocp;
 mod terminal;
 
-pub use ocp::{Ocp, OcpError, OcpLayout};
+pub use ocp::{Bands, Ocp, OcpError, OcpLayout};
 pub use terminal::{LinearTerminalCost, TerminalBox, TerminalCost};
 
 use std::ops::Range;
@@ -80,6 +80,13 @@ pub trait Nlp {
     /// lies inside one block. The default is one block of all variables.
     fn hessian_blocks(&self) -> Vec<Range<usize>> {
         std::iter::once(0..self.n_vars()).collect()
+    }
+
+    /// Maps `x` onto (or closer to) the feasible set cheaply, if the problem knows how: an
+    /// optimal-control problem re-simulates its states from the inputs. Returns whether
+    /// `x` was changed. Solvers may try the restored point when a step is rejected.
+    fn restore_feasibility(&mut self, _x: &mut [f64]) -> bool {
+        false
     }
 
     /// Everything a second-order method needs at one point, in one call: objective,

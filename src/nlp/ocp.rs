@@ -112,6 +112,15 @@ impl OcpLayout {
     }
 }
 
+/// Which bounds of the soft bands a problem plans with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Bands {
+    /// The planning bounds (`plan` in the model file; the scoring bounds where none).
+    Planning,
+    /// The bounds the season is scored with (for the season optimum, an upper bound).
+    Scoring,
+}
+
 /// One side of a soft band: row `s + sign·w·(y − bound) ≥ 0`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct SoftSide {
@@ -169,6 +178,11 @@ impl Ocp {
     /// The problem of `plant` over `horizon` steps, at the model's initial state and start
     /// input, nominal parameters and a zero forecast (set them with [`Ocp::set_problem`]).
     pub fn new(plant: Arc<Plant>, horizon: usize) -> Result<Ocp, OcpError> {
+        Ocp::with_bands(plant, horizon, Bands::Planning)
+    }
+
+    /// Like [`Ocp::new`], choosing which bounds of the soft bands the slacks measure.
+    pub fn with_bands(plant: Arc<Plant>, horizon: usize, bands: Bands) -> Result<Ocp, OcpError> {
         if horizon == 0 {
             return Err(OcpError::ZeroHorizon);
         }
@@ -176,18 +190,22 @@ impl Ocp {
         let model = &plant.model;
         let mut sides = Vec::new();
         for band in &model.soft {
-            if band.plan_lower.is_finite() && band.weight_below > 0.0 {
+            let (lower, upper) = match bands {
+                Bands::Planning => (band.plan_lower, band.plan_upper),
+                Bands::Scoring => (band.lower, band.upper),
+            };
+            if lower.is_finite() && band.weight_below > 0.0 {
                 sides.push(SoftSide {
                     output: band.output,
-                    bound: band.plan_lower,
+                    bound: lower,
                     sign: 1.0,
                     weight: band.weight_below,
                 });
             }
-            if band.plan_upper.is_finite() && band.weight_above > 0.0 {
+            if upper.is_finite() && band.weight_above > 0.0 {
                 sides.push(SoftSide {
                     output: band.output,
-                    bound: band.plan_upper,
+                    bound: upper,
                     sign: -1.0,
                     weight: band.weight_above,
                 });
@@ -861,6 +879,20 @@ impl Nlp for Ocp {
         values: &mut [f64],
     ) {
         self.hessian_sweep(x, objective_factor, multipliers, values);
+    }
+
+    /// Re-simulates the states from the inputs of `x` and sets the slacks to the
+    /// penalties: the dynamics and soft-band rows then hold exactly.
+    fn restore_feasibility(&mut self, x: &mut [f64]) -> bool {
+        let l = self.layout;
+        for j in 0..l.horizon {
+            self.evaluate_stage_values(x, j);
+            let o = self.stage_offset(j);
+            let next = l.x(j + 1);
+            x[next..next + l.nx].copy_from_slice(&self.stage_values[o..o + l.nx]);
+        }
+        self.set_slacks(x);
+        true
     }
 
     fn hessian_blocks(&self) -> Vec<Range<usize>> {

@@ -7,10 +7,12 @@ use serde::Serialize;
 /// Infinity norms of the first-order optimality conditions.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
 pub struct KktResiduals {
+    /// `‖∇f + Jᵀλ + ν‖∞`.
+    pub stationarity: f64,
     /// `‖D (∇f + Jᵀλ + ν)‖∞`, `D` the range of each variable bounded on both sides (1
     /// for the others): the first-order change of the Lagrangian over a variable's range,
-    /// so that inputs in different units weigh alike.
-    pub stationarity: f64,
+    /// so that inputs in different units weigh alike (reported, not used in `max`).
+    pub scaled_stationarity: f64,
     /// Largest violation of a bound or constraint.
     pub primal: f64,
     /// Largest `|multiplier| × slack` of its bound, and any multiplier of the wrong sign
@@ -110,9 +112,9 @@ pub(crate) fn residuals_of(
             bounds.x_upper[i],
             point.bound_multipliers[i],
         );
-        out.stationarity = out
-            .stationarity
-            .max((scratch[i] + nu).abs() * bounds.scale[i]);
+        let r = (scratch[i] + nu).abs();
+        out.stationarity = out.stationarity.max(r);
+        out.scaled_stationarity = out.scaled_stationarity.max(r * bounds.scale[i]);
         out.primal = out.primal.max(violation(x, lo, hi));
         out.complementarity = out.complementarity.max(complementarity(x, lo, hi, nu));
     }

@@ -2,26 +2,33 @@
 //!
 //! Each iteration evaluates everything at once ([`Nlp::evaluate_all`]: one derivative
 //! sweep per stage), checks the KKT conditions, and solves a quadratic sub-problem with
-//! clarabel ([`super::qp`]):
+//! clarabel ([`super::qp`]).
 //!
 //! * Curvature: the exact Hessian of the Lagrangian plus a Levenberg–Marquardt term
 //!   `ρ / D²` (`D` a variable's range, so inputs in W m⁻² and in mm s⁻¹ are damped alike).
-//!   When that QP fails or its step does not descend the merit function, each diagonal
-//!   block (one stage's states and inputs) is convexified by clipping its negative
-//!   eigenvalues, and the QP is solved again. (Clipping first was tried and is worse here:
-//!   it adds curvature through the stage couplings and SQP then creeps along the flat
-//!   directions of the economic cost.)
+//!   When that QP fails or its step ascends the merit function, the diagonal is shifted
+//!   by `δ / D²`, δ = 1e-7 … 1e-1 (a hundredfold per try, starting one notch below the
+//!   shift that worked at the previous iteration), and as a last resort each diagonal
+//!   block is convexified by clipping its negative eigenvalues. (Clipping first was tried
+//!   and is worse here: it adds curvature through the stage couplings and SQP then creeps
+//!   along the flat directions of the economic cost.)
 //! * Globalisation: the ℓ₁ merit `φ = f + μ Σ violation(g)`. A full step that fails the
-//!   Armijo test gets one second-order correction (constraints re-linearised at
-//!   `g(x + d) − J d`, against the Maratos effect of the nonlinear dynamics); if that fails
-//!   too, a trust region — a box of `radius` times the range on every variable bounded on
-//!   both sides — shrinks and the QP is solved again; a backtracking line search is the
-//!   last resort. Multipliers of an active trust-region box are not bound multipliers and
-//!   are dropped.
+//!   Armijo test is tried again after the NLP's own feasibility restoration (an
+//!   optimal-control problem re-simulates its states from the trial inputs), then with a
+//!   second-order correction (constraints re-linearised at `g(x + d) − J d`, against the
+//!   Maratos effect); if all fail, a trust region — a box of `radius` times the range on
+//!   every variable bounded on both sides — shrinks and the QP is solved again; a
+//!   backtracking line search is the last resort. A negligible step (a stationary point
+//!   whose multipliers were off, as after a warm start) is taken as it is.
+//! * Multipliers: the QP's, in full steps. After a step cut short, multipliers of bounds
+//!   that are not active (those of a trust-region box) are dropped.
+//! * Termination: optimal at a KKT residual of `tolerance`; acceptable at
+//!   `acceptable_tolerance` when no step can be made, or after `acceptable_iterations`
+//!   iterations in a row below it (the economic optimum is flat in places).
 //!
 //! Warm starts take a primal point and, when given, the multipliers of an earlier solve
 //! (shifted in time by the caller); from a shifted solution most MPC steps converge in
-//! two or three iterations.
+//! two iterations.
 
 use super::kkt::{l1_violation, residuals_of, Bounds, PointInfo};
 use super::qp::{QpData, QpOutcome, QpSolver};
@@ -38,8 +45,11 @@ pub struct SqpOptions {
     /// KKT residual (infinity norm of stationarity, feasibility, complementarity) at which
     /// the solve is optimal.
     pub tolerance: f64,
-    /// KKT residual accepted when the method cannot go further.
+    /// KKT residual accepted when the method cannot go further, or when it has stayed
+    /// below it for more than `acceptable_iterations` iterations in a row (the economic
+    /// optimum is flat in places and SQP then creeps).
     pub acceptable_tolerance: f64,
+    pub acceptable_iterations: usize,
     /// Levenberg–Marquardt term: `ρ / D²` is added to the Hessian's diagonal, `D` the
     /// variable's range (see [`super::KktResiduals::stationarity`]).
     pub levenberg_marquardt: f64,
@@ -60,11 +70,35 @@ impl Default for SqpOptions {
             max_iterations: 100,
             tolerance: 1e-8,
             acceptable_tolerance: 1e-6,
+            acceptable_iterations: 5,
             levenberg_marquardt: 1e-6,
             armijo: 1e-4,
             min_step: 1e-8,
             trust_region_tries: 6,
             trace: false,
+        }
+    }
+}
+
+/// The curvature a QP is given, tried in this order until the step descends the merit.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+enum Curvature {
+    /// The exact Hessian of the Lagrangian (plus the Levenberg–Marquardt term).
+    #[default]
+    Exact,
+    /// The exact Hessian plus `δ / D²` on the diagonal.
+    Shifted(f64),
+    /// Negative eigenvalues of every block clipped to zero.
+    Clipped,
+}
+
+impl Curvature {
+    /// The next try: shifts of 1e-7 … 1e-1, then clipping.
+    fn stronger(self) -> Curvature {
+        match self {
+            Curvature::Exact => Curvature::Shifted(1e-7),
+            Curvature::Shifted(d) if d < 1e-1 => Curvature::Shifted(d * 100.0),
+            _ => Curvature::Clipped,
         }
     }
 }
@@ -94,6 +128,9 @@ struct Work {
     dir_lambda: Vec<f64>,
     dir_nu: Vec<f64>,
     corrected_g: Vec<f64>,
+    restored_x: Vec<f64>,
+    /// The curvature of the last direction.
+    curvature: Curvature,
     /// For each Hessian entry, its block and position in the block.
     entry_place: Vec<(usize, usize, usize)>,
 }
@@ -159,7 +196,7 @@ impl Sqp {
 
     /// Fills the Hessian blocks from the Hessian values, with the Levenberg–Marquardt term,
     /// and with negative curvature clipped when `convexify` is set.
-    fn fill_blocks(&mut self, convexify: bool, scale: &[f64]) {
+    fn fill_blocks(&mut self, curvature: Curvature, scale: &[f64]) {
         let w = &mut self.work;
         for m in &mut w.blocks {
             m.fill(0.0);
@@ -168,9 +205,13 @@ impl Sqp {
             w.blocks[b][(r, c)] = v;
             w.blocks[b][(c, r)] = v;
         }
-        let rho = self.options.levenberg_marquardt;
+        let rho = self.options.levenberg_marquardt
+            + match curvature {
+                Curvature::Shifted(delta) => delta,
+                _ => 0.0,
+            };
         for (m, range) in w.blocks.iter_mut().zip(&w.block_ranges) {
-            if convexify {
+            if curvature == Curvature::Clipped {
                 clip_negative_curvature(m);
             }
             for (i, v) in range.clone().enumerate() {
@@ -240,11 +281,23 @@ impl Sqp {
         penalty: &mut f64,
     ) -> Result<f64, QpOutcome> {
         let mut result = Err(QpOutcome::Failed);
-        for convexify in [false, true] {
-            self.fill_blocks(convexify, &bounds.scale);
+        // Start one notch below the shift that worked last (the curvature of one solve's
+        // iterates changes slowly), then raise it a hundredfold per try.
+        let mut curvature = match self.work.curvature {
+            Curvature::Shifted(d) if d > 1e-7 => Curvature::Shifted(d / 100.0),
+            Curvature::Clipped => Curvature::Shifted(1e-3),
+            _ => Curvature::Exact,
+        };
+        loop {
+            let last = curvature == Curvature::Clipped;
+            self.fill_blocks(curvature, &bounds.scale);
             let outcome = self.solve_qp(x, bounds, radius, None);
             if outcome != QpOutcome::Solved {
                 result = Err(outcome);
+                if last {
+                    break;
+                }
+                curvature = curvature.stronger();
                 continue;
             }
             let Some(qp) = self.qp.as_ref() else { break };
@@ -258,12 +311,35 @@ impl Sqp {
             }
             let gd: f64 = w.gradient.iter().zip(&w.step).map(|(g, d)| g * d).sum();
             let slope = gd - *penalty * violation;
-            if convexify || slope < 0.0 {
+            // A negligible step means a stationary point: its multipliers are what counts.
+            let negligible = self.scaled_step(bounds, &self.work.step) <= 1e-9;
+            if last || slope < 0.0 || negligible {
+                self.work.curvature = curvature;
                 return Ok(slope);
             }
             result = Ok(slope);
+            curvature = curvature.stronger();
         }
         result
+    }
+
+    /// Merit of the trial point after the NLP's feasibility restoration (if it has one);
+    /// on success the restored point replaces the trial point.
+    fn restored_merit(&mut self, nlp: &mut dyn Nlp, bounds: &Bounds, penalty: f64) -> Option<f64> {
+        let w = &mut self.work;
+        w.restored_x.clone_from(&w.trial_x);
+        if !nlp.restore_feasibility(&mut w.restored_x) {
+            return None;
+        }
+        project_into(&mut w.restored_x, bounds);
+        let f = nlp.objective(&w.restored_x);
+        nlp.constraints(&w.restored_x, &mut w.trial_g);
+        let merit = f + penalty * l1_violation(&w.trial_g, bounds);
+        if !merit.is_finite() {
+            return None;
+        }
+        w.trial_x.clone_from(&w.restored_x);
+        Some(merit)
     }
 
     /// Merit of a trial point `x + d` (projected into the bounds); fills `trial_x`, `trial_g`.
@@ -335,23 +411,35 @@ impl Solver for Sqp {
             .map_or(vec![0.0; n], <[f64]>::to_vec);
         lambda.resize(m, 0.0);
         nu.resize(n, 0.0);
-        let finish = |status, iterations, objective, kkt, x, lambda, nu| Solution {
-            status,
-            x,
-            multipliers: lambda,
-            bound_multipliers: nu,
-            stats: SolveStats {
-                iterations,
-                time_s: clock.elapsed().as_secs_f64(),
-                objective,
-                kkt,
-            },
+        let trace = self.options.trace;
+        let finish = |status, iterations, objective, kkt: KktResiduals, x, lambda, nu| {
+            if trace {
+                eprintln!(
+                    "sqp end: {status:?} after {iterations} iterations, KKT {:.1e}",
+                    kkt.max()
+                );
+            }
+            Solution {
+                status,
+                x,
+                multipliers: lambda,
+                bound_multipliers: nu,
+                stats: SolveStats {
+                    iterations,
+                    time_s: clock.elapsed().as_secs_f64(),
+                    objective,
+                    kkt,
+                },
+            }
         };
         if let Err(status) = self.prepare(nlp, &bounds) {
             return finish(status, 0, f64::NAN, KktResiduals::default(), x, lambda, nu);
         }
         let options = self.options.clone();
         let mut penalty = 0.0_f64;
+        let mut acceptable_run = 0;
+        let mut stalled = false;
+        self.work.curvature = Curvature::Exact;
         let mut objective = f64::NAN;
         let mut kkt = KktResiduals::default();
         for iteration in 0..=options.max_iterations {
@@ -390,6 +478,22 @@ impl Solver for Sqp {
                 bound_multipliers: &nu,
             };
             kkt = residuals_of(&point, nlp.jacobian_pattern(), &bounds, &mut w.scratch);
+            acceptable_run = if kkt.max() <= options.acceptable_tolerance {
+                acceptable_run + 1
+            } else {
+                0
+            };
+            if kkt.max() > options.tolerance && acceptable_run > options.acceptable_iterations {
+                return finish(
+                    SolveStatus::Acceptable,
+                    iteration,
+                    objective,
+                    kkt,
+                    x,
+                    lambda,
+                    nu,
+                );
+            }
             if kkt.max() <= options.tolerance {
                 return finish(
                     SolveStatus::Optimal,
@@ -430,11 +534,26 @@ impl Solver for Sqp {
                 let step = self.work.step.clone();
                 let full = self.trial_merit(nlp, &x, &step, 1.0, &bounds, penalty);
                 let size = self.scaled_step(&bounds, &step);
-                if sufficient(1.0, full) {
+                if options.trace {
+                    eprintln!("    try radius {radius:.2e}: merit {merit:.10e} slope {slope:.3e} full {full:.10e} size {size:.2e} {:?}", self.work.curvature);
+                }
+                // A negligible step is taken as it is: the point is (nearly) stationary and
+                // only the QP's multipliers are news; rounding would fail the Armijo test.
+                let negligible = size <= 1e-9;
+                if negligible || sufficient(1.0, full) {
                     accepted = true;
                     if size >= 0.5 * radius {
                         radius = (2.0 * radius).min(1.0);
                     }
+                    break;
+                }
+                // Restoration: the NLP may map the trial point onto its constraints (an
+                // optimal-control problem re-simulates its states from the trial inputs).
+                if self
+                    .restored_merit(nlp, &bounds, penalty)
+                    .is_some_and(|m| sufficient(1.0, m))
+                {
+                    accepted = true;
                     break;
                 }
                 // Second-order correction: linearise the constraints around g(x + d) − J d.
@@ -483,40 +602,70 @@ impl Solver for Sqp {
                 accepted = trial <= merit + options.armijo * alpha * slope.min(0.0);
             }
             if !accepted {
-                let status = if kkt.max() <= options.acceptable_tolerance {
-                    SolveStatus::Acceptable
-                } else {
-                    SolveStatus::NumericalError
-                };
-                return finish(status, iteration, objective, kkt, x, lambda, nu);
+                if kkt.max() <= options.acceptable_tolerance {
+                    return finish(
+                        SolveStatus::Acceptable,
+                        iteration,
+                        objective,
+                        kkt,
+                        x,
+                        lambda,
+                        nu,
+                    );
+                }
+                if stalled {
+                    return finish(
+                        SolveStatus::NumericalError,
+                        iteration,
+                        objective,
+                        kkt,
+                        x,
+                        lambda,
+                        nu,
+                    );
+                }
+                // No step, but the QP's multipliers may be all that was missing (a cold
+                // start has none): take them and check again once.
+                stalled = true;
+                lambda.copy_from_slice(&self.work.dir_lambda);
+                nu.copy_from_slice(&self.work.dir_nu);
+                continue;
             }
+            stalled = false;
             if options.trace {
                 eprintln!(
-                    "sqp {iteration:3} f {objective:.12e} kkt {:.1e} {:.1e} {:.1e} alpha {alpha:.3} radius {radius:.2e}",
-                    kkt.stationarity, kkt.primal, kkt.complementarity
+                    "sqp {iteration:3} f {objective:.12e} kkt {:.1e} {:.1e} {:.1e} alpha {alpha:.3} radius {radius:.2e}{}",
+                    kkt.stationarity, kkt.primal, kkt.complementarity,
+                    match self.work.curvature {
+                        Curvature::Exact => String::new(),
+                        c => format!(" {c:?}"),
+                    }
                 );
             }
             let w = &mut self.work;
-            // Multipliers of the trust-region box are not multipliers of the bounds.
-            if radius < 1.0 && alpha == 1.0 {
+            // After a step cut short (by the trust region or the line search), a bound
+            // multiplier stands only where its bound is active at the new point: the
+            // multipliers of a trust-region box, or of a bound the step stopped short of,
+            // are dropped.
+            if radius < 1.0 || alpha < 1.0 {
                 for (i, v) in w.dir_nu.iter_mut().enumerate() {
                     let t = w.trial_x[i];
-                    let tolerance = 1e-6 * bounds.scale[i];
-                    let ranged = (bounds.x_upper[i] - bounds.x_lower[i]).is_finite();
-                    let at_bound = (bounds.x_upper[i] - t).abs() <= tolerance
-                        || (t - bounds.x_lower[i]).abs() <= tolerance;
-                    if ranged && !at_bound {
+                    let tolerance = 1e-7 * bounds.scale[i];
+                    let active = if *v > 0.0 {
+                        bounds.x_upper[i] - t <= tolerance
+                    } else {
+                        t - bounds.x_lower[i] <= tolerance
+                    };
+                    if !active {
                         *v = 0.0;
                     }
                 }
             }
             x.copy_from_slice(&w.trial_x);
-            for (l, &q) in lambda.iter_mut().zip(&w.dir_lambda) {
-                *l += alpha * (q - *l);
-            }
-            for (v, &q) in nu.iter_mut().zip(&w.dir_nu) {
-                *v += alpha * (q - *v);
-            }
+            // Full multiplier steps: the QP's multipliers are the best estimate at hand
+            // whatever the primal step length.
+            lambda.copy_from_slice(&w.dir_lambda);
+            nu.copy_from_slice(&w.dir_nu);
         }
         let status = if kkt.max() <= options.acceptable_tolerance {
             SolveStatus::Acceptable
