@@ -47,7 +47,11 @@ pub struct SqpOptions {
     pub tolerance: f64,
     /// KKT residual accepted when the method cannot go further, or when it has stayed
     /// below it for more than `acceptable_iterations` iterations in a row (the economic
-    /// optimum is flat in places and SQP then creeps).
+    /// optimum is flat in places and SQP then creeps). A feasible point whose objective
+    /// has not moved (relative 1e-10) for `acceptable_iterations` iterations, with a KKT
+    /// residual below 1e-3, is acceptable too: its multipliers are degenerate. A feasible point whose objective
+    /// has not moved (relative 1e-10) for `acceptable_iterations` iterations, with a KKT
+    /// residual below 1e-3, is acceptable too: its multipliers are degenerate.
     pub acceptable_tolerance: f64,
     pub acceptable_iterations: usize,
     /// Levenberg–Marquardt term: `ρ / D²` is added to the Hessian's diagonal, `D` the
@@ -439,6 +443,8 @@ impl Solver for Sqp {
         let mut penalty = 0.0_f64;
         let mut acceptable_run = 0;
         let mut stalled = false;
+        let mut stall_run = 0;
+        let mut last_objective = f64::NAN;
         self.work.curvature = Curvature::Exact;
         let mut objective = f64::NAN;
         let mut kkt = KktResiduals::default();
@@ -494,6 +500,26 @@ impl Solver for Sqp {
                     nu,
                 );
             }
+            // Stalled: feasible, the objective no longer moves, only the multipliers of a
+            // degenerate point still wander.
+            let moved = (objective - last_objective).abs() > 1e-10 * objective.abs().max(1e-3);
+            stall_run = if !moved && kkt.primal <= 1e-8 && kkt.max() <= 1e-3 {
+                stall_run + 1
+            } else {
+                0
+            };
+            last_objective = objective;
+            if kkt.max() > options.tolerance && stall_run >= options.acceptable_iterations {
+                return finish(
+                    SolveStatus::Acceptable,
+                    iteration,
+                    objective,
+                    kkt,
+                    x,
+                    lambda,
+                    nu,
+                );
+            }
             if kkt.max() <= options.tolerance {
                 return finish(
                     SolveStatus::Optimal,
@@ -534,9 +560,6 @@ impl Solver for Sqp {
                 let step = self.work.step.clone();
                 let full = self.trial_merit(nlp, &x, &step, 1.0, &bounds, penalty);
                 let size = self.scaled_step(&bounds, &step);
-                if options.trace {
-                    eprintln!("    try radius {radius:.2e}: merit {merit:.10e} slope {slope:.3e} full {full:.10e} size {size:.2e} {:?}", self.work.curvature);
-                }
                 // A negligible step is taken as it is: the point is (nearly) stationary and
                 // only the QP's multipliers are news; rounding would fail the Armijo test.
                 let negligible = size <= 1e-9;
