@@ -1,4 +1,5 @@
-//! A plant of your own, built in Rust with `ModelBuilder` and simulated for a day.
+//! A plant of your own, built in Rust with `ModelBuilder`, run for a day with a constant
+//! heater and with economic MPC.
 //!
 //! A small heated room: temperature T [°C] relaxes to the outdoor temperature through the
 //! walls and is raised by a heater u [W]; the heater costs money and the room should stay
@@ -6,10 +7,12 @@
 //!
 //! Run: `cargo run --release --example custom_plant`
 
-use ghm::control::ConstantInput;
+use ghm::control::{ConstantInput, Controller, Mpc};
 use ghm::model::{ModelBuilder, Plant};
 use ghm::sim::season::{run_season, SeasonConfig, StepLog};
 use ghm::sim::weather::Weather;
+use ghm::solve::Sqp;
+use std::sync::Arc;
 
 fn room() -> Result<ghm::lang::Model, ghm::model::BuildError> {
     let mut b = ModelBuilder::new("room");
@@ -37,36 +40,46 @@ fn room() -> Result<ghm::lang::Model, ghm::model::BuildError> {
 
 fn main() {
     let plant = match room() {
-        Ok(model) => Plant::new(model),
+        Ok(model) => Arc::new(Plant::new(model)),
         Err(e) => {
             eprintln!("error: {e}");
             std::process::exit(1);
         }
     };
     let steps = 96; // one day of 15-minute steps
-    let weather = Weather::constant(vec!["outside".into()], &[5.0], steps, 900.0);
+    let horizon = 8; // MPC looks two hours ahead
+    let weather = Weather::constant(vec!["outside".into()], &[5.0], steps + horizon, 900.0);
     let config = SeasonConfig {
         steps,
         enforce_limits: true,
         uncertainty: None,
     };
-    let mut heater = ConstantInput(vec![700.0]);
-    let mut last = 0.0;
-    let mut sink = |log: &StepLog| last = log.state[0];
-    match run_season(&plant, &weather, &mut heater, &config, &mut sink) {
-        Ok(result) => {
-            println!(
-                "room after one day at 700 W: {last:.2} °C → {:.2} °C",
-                result.final_state[0]
-            );
-            println!(
-                "energy cost {:.3} €, comfort penalty {:.3} €, reward {:.3} €",
-                -result.metrics.epi, result.metrics.total_penalty, result.metrics.cumulative_reward
-            );
-        }
+    let mpc = match Mpc::new(plant.clone(), horizon, Box::new(Sqp::default())) {
+        Ok(mpc) => mpc,
         Err(e) => {
             eprintln!("error: {e}");
             std::process::exit(1);
+        }
+    };
+    let controllers: Vec<(&str, Box<dyn Controller>)> = vec![
+        ("heater at 700 W", Box::new(ConstantInput(vec![700.0]))),
+        ("economic MPC, 2 h", Box::new(mpc)),
+    ];
+    for (name, mut controller) in controllers {
+        let mut coldest = f64::INFINITY;
+        let mut sink = |log: &StepLog| coldest = coldest.min(log.outputs[0]);
+        match run_season(&plant, &weather, controller.as_mut(), &config, &mut sink) {
+            Ok(result) => println!(
+                "{name:<18} room at {:.2} °C after a day (coldest {coldest:.2} °C); energy {:.3} €, comfort penalty {:.3} €, reward {:+.3}",
+                result.final_state[0],
+                -result.metrics.epi,
+                result.metrics.total_penalty,
+                result.metrics.cumulative_reward
+            ),
+            Err(e) => {
+                eprintln!("error: {e}");
+                std::process::exit(1);
+            }
         }
     }
 }

@@ -78,20 +78,6 @@ fn builder_reports_missing_pieces() {
     );
 }
 
-#[test]
-fn custom_plant_example_runs() {
-    let out = std::process::Command::new(env!("CARGO"))
-        .args(["run", "--quiet", "--example", "custom_plant"])
-        .output()
-        .expect("cargo run --example custom_plant");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    assert!(String::from_utf8_lossy(&out.stdout).contains("room after one day"));
-}
-
 /// A plant without disturbances runs a season on a constant (empty) weather.
 #[test]
 fn plant_without_disturbances_runs_a_season() {

@@ -36,7 +36,7 @@ pub enum Node {
     Const(u64),
     /// Variable number `i` of the graph's inputs.
     Var(u32),
-    /// An operation on up to three earlier nodes (unused slots hold [`NodeId::NONE`]).
+    /// An operation on up to three earlier nodes (unused slots hold `NodeId::NONE`).
     Apply(Op, [NodeId; 3]),
 }
 
