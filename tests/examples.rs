@@ -23,7 +23,7 @@ fn last_number(text: &str, label: &str) -> f64 {
         .unwrap_or_else(|| panic!("no line starting with {label:?} in\n{text}"));
     line.split_whitespace()
         .filter_map(|w| w.trim_end_matches('€').parse::<f64>().ok())
-        .last()
+        .next_back()
         .unwrap_or_else(|| panic!("no number in {line:?}"))
 }
 
