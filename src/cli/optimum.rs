@@ -23,9 +23,10 @@ pub struct OptimumArgs {
     /// Horizon of the closed-loop MPC run that initialises the optimum.
     #[arg(long, value_name = "H", default_value = "1h")]
     pub init_horizon: String,
-    /// NLP back-end for the season NLP.
-    #[arg(long, value_enum, default_value_t = SolverChoice::Sqp)]
-    pub solver: SolverChoice,
+    /// NLP back-end for the season NLP (default: ipopt where built with it, it is much
+    /// faster on this large NLP; sqp otherwise).
+    #[arg(long, value_enum)]
+    pub solver: Option<SolverChoice>,
     /// Iteration limit of the season NLP.
     #[arg(long, value_name = "N", default_value_t = 500)]
     pub max_iterations: usize,
@@ -63,7 +64,12 @@ pub fn run(args: &OptimumArgs) -> Result<(), CliError> {
     );
 
     println!("solving the season as one NLP ({steps} stages)");
-    let mut solver: Box<dyn Solver> = match args.solver {
+    let choice = args.solver.unwrap_or(if cfg!(feature = "ipopt") {
+        SolverChoice::Ipopt
+    } else {
+        SolverChoice::Sqp
+    });
+    let mut solver: Box<dyn Solver> = match choice {
         SolverChoice::Sqp => Box::new(Sqp::new(SqpOptions {
             max_iterations: args.max_iterations,
             trace: true,
