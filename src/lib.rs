@@ -35,5 +35,6 @@ pub mod lang;
 pub mod model;
 pub mod nlp;
 pub mod report;
+pub mod rl;
 pub mod sim;
 pub mod solve;

@@ -85,21 +85,32 @@ pub struct SeasonResult {
 
 /// Draws p̂ under the model's uncertainty rule.
 pub fn draw_params(plant: &Plant, delta: f64, rng: &mut ChaCha8Rng) -> Vec<f64> {
+    let mut params = plant.model.nominal_params();
+    draw_params_into(plant, delta, rng, &mut params);
+    params
+}
+
+/// Draws p̂ under the model's uncertainty rule into `params` (one entry per model
+/// parameter), without allocation; consumes the RNG exactly as [`draw_params`] does.
+///
+/// # Panics
+/// If `params.len()` differs from the number of model parameters.
+pub fn draw_params_into(plant: &Plant, delta: f64, rng: &mut ChaCha8Rng, params: &mut [f64]) {
     let rule = plant.model.uncertainty;
-    plant
-        .model
-        .params
-        .iter()
-        .map(|p| {
-            let in_scope = rule.all_params || p.kind == crate::lang::ast::ParamKind::Uncertain;
-            if in_scope && delta > 0.0 {
-                let w = rule.spread * delta;
-                p.value * (1.0 + rng.random_range(-w..=w))
-            } else {
-                p.value
-            }
-        })
-        .collect()
+    assert_eq!(
+        params.len(),
+        plant.model.params.len(),
+        "draw_params_into: one value per parameter"
+    );
+    for (v, p) in params.iter_mut().zip(&plant.model.params) {
+        let in_scope = rule.all_params || p.kind == crate::lang::ast::ParamKind::Uncertain;
+        *v = if in_scope && delta > 0.0 {
+            let w = rule.spread * delta;
+            p.value * (1.0 + rng.random_range(-w..=w))
+        } else {
+            p.value
+        };
+    }
 }
 
 /// Clips `u` to the bounds and to `|u − u_prev| ≤ rate`.
