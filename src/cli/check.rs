@@ -95,7 +95,7 @@ pub fn run(args: &CheckArgs) -> Result<(), CliError> {
     let tree = plant.graph.tree_size(&roots);
     let dag = plant.graph.reachable(&roots).len();
     println!(
-        "  discrete step graph: {tree:.3e} nodes as trees, {dag} after sharing ({:.0}× smaller)",
+        "  discrete step graph: {tree:.3e} nodes as trees, {dag} after sharing ({:.1e}× smaller)",
         tree / dag as f64
     );
     let tape = plant.step_tape();
