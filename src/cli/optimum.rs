@@ -59,8 +59,9 @@ pub fn run(args: &OptimumArgs) -> Result<(), CliError> {
     };
     let initial = run_season(&plant, &weather, &mut mpc, &config, &mut collect)?;
     println!(
-        "  closed loop: cumulative reward {:+.4} EUR/m2",
-        initial.metrics.cumulative_reward
+        "  closed loop: cumulative reward {:+.4} {}",
+        initial.metrics.cumulative_reward,
+        plant.model.objective_unit()
     );
 
     println!("solving the season as one NLP ({steps} stages)");

@@ -40,6 +40,7 @@ pub struct TrajectoryWriter {
     path: PathBuf,
     out: BufWriter<File>,
     steps_per_day: usize,
+    period_h: f64,
     pub logs: Vec<StepLog>,
     bar: ProgressBar,
 }
@@ -92,6 +93,7 @@ impl TrajectoryWriter {
             path,
             out,
             steps_per_day,
+            period_h: m.sample_period / 3600.0,
             logs: Vec::with_capacity(steps),
             bar,
         })
@@ -107,7 +109,7 @@ impl StepSink for TrajectoryWriter {
     fn step(&mut self, log: &StepLog) -> Result<(), String> {
         let mut row: Vec<String> = vec![
             log.step.to_string(),
-            format!("{}", log.step as f64 * 24.0 / self.steps_per_day as f64),
+            format!("{}", log.step as f64 * self.period_h),
         ];
         let nums = log
             .state
@@ -150,7 +152,7 @@ pub fn write_summary(dir: &Path, summary: &serde_json::Value) -> Result<(), CliE
 }
 
 /// Draws `trajectory.png`: each state and output with its band, the inputs, and the
-/// cumulative reward, against time in days.
+/// cumulative reward, against time (days, hours or minutes by the run's length).
 pub fn plot_trajectory(
     dir: &Path,
     plant: &Plant,
@@ -158,8 +160,19 @@ pub fn plot_trajectory(
     title: &str,
 ) -> Result<(), CliError> {
     let m = &plant.model;
-    let per_day = 86400.0 / m.sample_period;
-    let x: Vec<f64> = logs.iter().map(|l| l.step as f64 / per_day).collect();
+    // Time in days, hours or minutes, whichever suits the run's length.
+    let span_s = logs.len() as f64 * m.sample_period;
+    let (unit_s, x_label) = if span_s >= 2.0 * 86400.0 {
+        (86400.0, "day")
+    } else if span_s >= 2.0 * 3600.0 {
+        (3600.0, "hour")
+    } else {
+        (60.0, "minute")
+    };
+    let x: Vec<f64> = logs
+        .iter()
+        .map(|l| l.step as f64 * m.sample_period / unit_s)
+        .collect();
     let mut panels = Vec::new();
     for (i, o) in m.outputs.iter().enumerate() {
         let band = m
@@ -204,7 +217,7 @@ pub fn plot_trajectory(
     }
     panels.push(Panel {
         title: "cumulative reward".into(),
-        unit: "EUR m^-2".into(),
+        unit: plant.model.objective_unit(),
         lines: vec![Line {
             label: "reward".into(),
             values: logs.iter().map(|l| l.cumulative_reward).collect(),
@@ -213,7 +226,7 @@ pub fn plot_trajectory(
     });
     let fig = Figure {
         title: title.to_string(),
-        x_label: "day".into(),
+        x_label: x_label.into(),
         x,
         panels,
     };

@@ -141,14 +141,14 @@ pub(crate) fn run_season_and_report(
         m.steps,
         m.steps as f64 * plant.model.sample_period / 86400.0,
         controller.name(),
-        args.weather.describe()
+        args.weather.describe(&plant.model)
     );
-    print_metrics(m);
+    print_metrics(m, &plant.model.objective_unit());
     let mut summary = json!({
         "command": std::env::args().collect::<Vec<_>>(),
         "model": args.file.display().to_string(),
         "model_sha256": model_hash(plant),
-        "weather": args.weather.describe(),
+        "weather": args.weather.describe(&plant.model),
         "controller": controller.name(),
         "uncertainty": args.uncertainty,
         "seed": args.seed,
@@ -172,16 +172,16 @@ pub(crate) fn run_season_and_report(
 }
 
 /// Prints the season figures.
-pub fn print_metrics(m: &crate::sim::metrics::Metrics) {
-    println!("  EPI               {:+.4} EUR/m2", m.epi);
-    println!("  penalties         {:.4} EUR/m2", m.total_penalty);
+pub fn print_metrics(m: &crate::sim::metrics::Metrics, unit: &str) {
+    println!("  EPI               {:+.4} {unit}", m.epi);
+    println!("  penalties         {:.4} {unit}", m.total_penalty);
     for b in &m.bands {
         println!(
-            "    {:<14} {:.4} EUR/m2, {:.1} h outside",
+            "    {:<14} {:.4} {unit}, {:.1} h outside",
             b.output, b.penalty, b.hours_outside
         );
     }
-    println!("  cumulative reward {:+.4} EUR/m2", m.cumulative_reward);
+    println!("  cumulative reward {:+.4} {unit}", m.cumulative_reward);
     let s = &m.solve;
     if s.max_ms > 0.0 {
         println!(

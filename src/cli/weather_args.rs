@@ -84,7 +84,13 @@ impl WeatherArgs {
     }
 
     /// A one-line description of the weather source for summaries.
-    pub fn describe(&self) -> String {
+    pub fn describe(&self, model: &Model) -> String {
+        if model.disturbances.iter().all(|d| d.value.is_some())
+            && self.weather.is_none()
+            && self.knmi.is_none()
+        {
+            return "no weather (the model's disturbances are constant)".into();
+        }
         match (&self.weather, &self.knmi) {
             (Some(p), _) => format!("csv {} from row {}", p.display(), self.start_row),
             (None, Some(p)) => format!("knmi {} from row {}", p.display(), self.start_row),

@@ -204,6 +204,16 @@ impl Model {
             .collect()
     }
 
+    /// The unit of the objective for reports: the unit of the first reward or cost term,
+    /// as written in the model file (`""` when it has none or says `-`).
+    pub fn objective_unit(&self) -> String {
+        self.terms
+            .first()
+            .map(|t| t.info.unit.trim().to_string())
+            .filter(|u| u != "-")
+            .unwrap_or_default()
+    }
+
     pub fn output_index(&self, name: &str) -> Option<usize> {
         self.outputs.iter().position(|o| o.info.name == name)
     }
