@@ -61,6 +61,27 @@ enum Phase {
 
 /// An episodic environment: a plant, a weather, an episode length and optional parametric
 /// uncertainty. See the [module documentation](self) for the observation, action and reward.
+///
+/// ```
+/// use ghm::rl::Env;
+/// use ghm::sim::weather::builtin_season;
+/// use std::sync::Arc;
+///
+/// let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/lettuce.ghm");
+/// let plant = Arc::new(ghm::model::Plant::new(ghm::lang::load(&file).map_err(|e| e.render()).unwrap()));
+/// let columns = plant.model.weather_columns();
+/// let weather = builtin_season(48, plant.model.sample_period, 7).select(&columns, 0, 48).unwrap();
+/// let mut env = Env::new(plant, weather, 48, None).unwrap();
+/// let first = env.reset().to_vec(); // outputs, previous input, step, weather: 12 values
+/// assert_eq!(first.len(), 12);
+/// let mut total = 0.0;
+/// loop {
+///     let t = env.step(&[0.0, 0.0, 0.0]).unwrap(); // hold the inputs
+///     total += t.reward;
+///     if t.done { break; }
+/// }
+/// assert!(total.is_finite());
+/// ```
 #[derive(Debug, Clone)]
 pub struct Env {
     plant: Arc<Plant>,
