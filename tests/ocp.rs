@@ -123,3 +123,56 @@ fn hessian_matches_differences_of_the_lagrangian_gradient() {
         }
     }
 }
+
+/// The terminal hooks RL-guided MPC needs: a linear terminal cost changes the plan the
+/// way its gradient says, and a terminal box holds at the solution, which satisfies KKT.
+#[test]
+fn terminal_cost_and_terminal_box_shape_the_solution() {
+    use ghm::nlp::{LinearTerminalCost, TerminalBox};
+    use ghm::solve::{kkt_residuals, Solver, Sqp, Start};
+    let plant = plant("models/lettuce.ghm");
+    let n = 4;
+    let forecast: Vec<f64> = (0..n).flat_map(|_| [120.0, 7e-4, 6.0, 6e-3]).collect();
+    let x0 = plant.model.initial_state();
+    let solve = |ocp: &mut Ocp| {
+        ocp.set_problem(0, &x0, &plant.model.start_input(), &forecast)
+            .unwrap();
+        let mut start = vec![0.0; ocp.n_vars()];
+        ocp.initial_point(&mut start);
+        let s = Sqp::default().solve(ocp, Start::cold(&start));
+        assert!(s.status.is_success(), "{:?}", s.status);
+        let kkt = kkt_residuals(ocp, &s.x, &s.multipliers, &s.bound_multipliers);
+        assert!(kkt.max() <= 1e-6, "{kkt:?}");
+        s
+    };
+    let mut plain = Ocp::new(plant.clone(), n).unwrap();
+    let free = solve(&mut plain);
+    let temp_at_end = |ocp: &Ocp, x: &[f64]| ocp.state_at(x, n)[2];
+    let t_free = temp_at_end(&plain, &free.x);
+
+    // A reward for a warm greenhouse at the end (cost −0.01 € per °C) warms the plan.
+    let mut rewarded = Ocp::new(plant.clone(), n).unwrap();
+    rewarded.set_terminal_cost(Some(Box::new(LinearTerminalCost {
+        value: 0.0,
+        gradient: vec![0.0, 0.0, -0.01, 0.0],
+        anchor: x0.clone(),
+    })));
+    let warm = solve(&mut rewarded);
+    assert!(
+        temp_at_end(&rewarded, &warm.x) > t_free + 0.1,
+        "{} vs {t_free}",
+        temp_at_end(&rewarded, &warm.x)
+    );
+
+    // A terminal box 0.5 °C under the free plan's end temperature holds at the solution.
+    let mut boxed = Ocp::new(plant.clone(), n).unwrap();
+    let cap = t_free - 0.5;
+    boxed.set_terminal_box(Some(TerminalBox {
+        state_lower: vec![f64::NEG_INFINITY; 4],
+        state_upper: vec![f64::INFINITY, f64::INFINITY, cap, f64::INFINITY],
+        input_lower: vec![f64::NEG_INFINITY; 3],
+        input_upper: vec![f64::INFINITY; 3],
+    }));
+    let capped = solve(&mut boxed);
+    assert!(temp_at_end(&boxed, &capped.x) <= cap + 1e-9);
+}
