@@ -176,3 +176,21 @@ fn terminal_cost_and_terminal_box_shape_the_solution() {
     let capped = solve(&mut boxed);
     assert!(temp_at_end(&boxed, &capped.x) <= cap + 1e-9);
 }
+
+/// `Solver::set_iteration_limit` caps the next solves and is lifted by `None`.
+#[test]
+fn iteration_limit_caps_sqp_until_lifted() {
+    use ghm::solve::{SolveStatus, Solver, Sqp, Start};
+    let (mut ocp, _, _) = problem(3);
+    let mut start = vec![0.0; ocp.n_vars()];
+    ocp.initial_point(&mut start);
+    let mut sqp = Sqp::default();
+    sqp.set_iteration_limit(Some(1));
+    let capped = sqp.solve(&mut ocp, Start::cold(&start));
+    assert!(capped.stats.iterations <= 1);
+    assert_ne!(capped.status, SolveStatus::Optimal);
+    sqp.set_iteration_limit(None);
+    let full = sqp.solve(&mut ocp, Start::cold(&start));
+    assert!(full.status.is_success(), "{:?}", full.status);
+    assert!(full.stats.iterations > 1);
+}

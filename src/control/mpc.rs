@@ -4,6 +4,10 @@
 //! The solve starts from the previous solution shifted by one step (primal and dual). Its
 //! status is checked every step; when it fails, the controller falls back, in this order:
 //!
+//! The warm solve is capped at [`Mpc::warm_iteration_limit`] iterations (15): from a
+//! shifted solution SQP needs two or three, and one that needs many more is usually stuck
+//! on a flat stretch of the economic cost, where a cold start is the better use of time.
+//!
 //! 1. `cold_start`: solve again from the held previous input, simulated;
 //! 2. `shifted_plan`: apply the second input of the last successful plan;
 //! 3. `hold_input`: hold the previous input (within the bounds and rate limits).
@@ -29,6 +33,8 @@ pub struct Mpc {
     start_x: Vec<f64>,
     start_lambda: Vec<f64>,
     start_nu: Vec<f64>,
+    /// Iteration cap of the warm-started solve before the cold start takes over.
+    pub warm_iteration_limit: Option<usize>,
 }
 
 impl Mpc {
@@ -50,6 +56,7 @@ impl Mpc {
             start_x: vec![0.0; n],
             start_lambda: vec![0.0; m],
             start_nu: vec![0.0; n],
+            warm_iteration_limit: Some(15),
         })
     }
 
@@ -95,10 +102,15 @@ impl Mpc {
             .shift_multipliers(&last.multipliers, &mut self.start_lambda);
         self.ocp
             .shift_bound_multipliers(&last.bound_multipliers, &mut self.start_nu);
-        Some(self.solver.solve(
+        // From a good warm start SQP needs two or three iterations; a warm solve that
+        // needs many more is usually stuck, and a cold start is the better use of time.
+        self.solver.set_iteration_limit(self.warm_iteration_limit);
+        let solution = self.solver.solve(
             &mut self.ocp,
             Start::warm(&self.start_x, &self.start_lambda, &self.start_nu),
-        ))
+        );
+        self.solver.set_iteration_limit(None);
+        Some(solution)
     }
 
     fn solve_cold(&mut self) -> Solution {

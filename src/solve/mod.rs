@@ -125,4 +125,7 @@ pub trait Solver {
     fn name(&self) -> &'static str;
     /// Solves from `start`. Never panics on a bad problem; the status tells.
     fn solve(&mut self, nlp: &mut dyn Nlp, start: Start<'_>) -> Solution;
+    /// Caps the iterations of the following solves (`None`: the solver's own limit).
+    /// Back-ends without the notion ignore it.
+    fn set_iteration_limit(&mut self, _limit: Option<usize>) {}
 }

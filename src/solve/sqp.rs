@@ -110,6 +110,8 @@ impl Curvature {
 /// The pure-Rust SQP back-end.
 pub struct Sqp {
     pub options: SqpOptions,
+    /// A temporary cap on the iterations, below `options.max_iterations`.
+    iteration_limit: Option<usize>,
     qp: Option<QpSolver>,
     work: Work,
 }
@@ -149,6 +151,7 @@ impl Sqp {
     pub fn new(options: SqpOptions) -> Sqp {
         Sqp {
             options,
+            iteration_limit: None,
             qp: None,
             work: Work::default(),
         }
@@ -402,6 +405,10 @@ impl Solver for Sqp {
         "sqp"
     }
 
+    fn set_iteration_limit(&mut self, limit: Option<usize>) {
+        self.iteration_limit = limit;
+    }
+
     fn solve(&mut self, nlp: &mut dyn Nlp, start: Start<'_>) -> Solution {
         let clock = Instant::now();
         let (n, m) = (nlp.n_vars(), nlp.n_cons());
@@ -439,7 +446,10 @@ impl Solver for Sqp {
         if let Err(status) = self.prepare(nlp, &bounds) {
             return finish(status, 0, f64::NAN, KktResiduals::default(), x, lambda, nu);
         }
-        let options = self.options.clone();
+        let mut options = self.options.clone();
+        if let Some(limit) = self.iteration_limit {
+            options.max_iterations = options.max_iterations.min(limit);
+        }
         let mut penalty = 0.0_f64;
         let mut acceptable_run = 0;
         let mut stalled = false;
