@@ -301,3 +301,16 @@ fn infeasible_and_non_finite_programs_fail_without_panic() {
     eprintln!("nan: {:?}", sol.status);
     assert!(!sol.status.is_success());
 }
+
+#[test]
+fn iteration_limit_caps_ipopt_until_lifted() {
+    let mut nlp = Hs071::new();
+    let mut solver = Ipopt::default();
+    solver.set_iteration_limit(Some(2));
+    let capped = solver.solve(&mut nlp, Start::cold(&[1.0, 5.0, 5.0, 1.0]));
+    assert_eq!(capped.status, SolveStatus::MaxIterations);
+    assert!(capped.stats.iterations <= 2);
+    solver.set_iteration_limit(None);
+    let full = solver.solve(&mut nlp, Start::cold(&[1.0, 5.0, 5.0, 1.0]));
+    assert_eq!(full.status, SolveStatus::Optimal);
+}

@@ -71,11 +71,16 @@ static IPOPT_LOCK: Mutex<()> = Mutex::new(());
 #[derive(Debug, Clone, Default)]
 pub struct Ipopt {
     pub options: IpoptOptions,
+    /// A temporary cap on the iterations, below `options.max_iter`.
+    iteration_limit: Option<usize>,
 }
 
 impl Ipopt {
     pub fn new(options: IpoptOptions) -> Ipopt {
-        Ipopt { options }
+        Ipopt {
+            options,
+            iteration_limit: None,
+        }
     }
 }
 
@@ -111,6 +116,10 @@ impl Solver for Ipopt {
         "ipopt"
     }
 
+    fn set_iteration_limit(&mut self, limit: Option<usize>) {
+        self.iteration_limit = limit;
+    }
+
     fn solve(&mut self, nlp: &mut dyn Nlp, start: Start<'_>) -> Solution {
         let time = Instant::now();
         let (n, m) = (nlp.n_vars(), nlp.n_cons());
@@ -140,7 +149,10 @@ impl Solver for Ipopt {
             nlp.initial_point(&mut x);
             return failed(nlp, x, time);
         }
-        let max_iter = i32::try_from(o.max_iter).unwrap_or(i32::MAX);
+        let limit = self
+            .iteration_limit
+            .map_or(o.max_iter, |cap| cap.min(o.max_iter));
+        let max_iter = i32::try_from(limit).unwrap_or(i32::MAX);
         let mut options = vec![
             ("print_level", Value::Int(o.print_level)),
             ("sb", Value::Str("yes")),
