@@ -173,6 +173,11 @@ fn cstr_in_code() -> ghm::lang::Model {
     let effort = b.mul(weight, sq);
     b.cost("effort", effort);
     b.soft(y_t, f64::NEG_INFINITY, 355.0, 0.0, 100.0);
+    assert!(
+        !b.plan(f64::NEG_INFINITY, 360.0),
+        "a planning bound outside the band"
+    );
+    assert!(b.plan(f64::NEG_INFINITY, 352.0));
     b.sample(6.0, 20);
     b.build().expect("complete CSTR")
 }

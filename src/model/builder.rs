@@ -236,6 +236,22 @@ impl ModelBuilder {
         });
     }
 
+    /// Tighter bounds for the optimiser to plan with on the last soft band added (`plan`
+    /// in the language); the band is still scored with its own bounds. Returns `false`
+    /// (and changes nothing) when there is no band yet or the planning bounds are not
+    /// inside the scoring bounds.
+    pub fn plan(&mut self, lower: f64, upper: f64) -> bool {
+        let Some(band) = self.soft.last_mut() else {
+            return false;
+        };
+        if !(lower >= band.lower && upper <= band.upper && lower <= upper) {
+            return false;
+        }
+        band.plan_lower = lower;
+        band.plan_upper = upper;
+        true
+    }
+
     /// Sample period in seconds and RK4 sub-steps.
     pub fn sample(&mut self, period_s: f64, substeps: usize) {
         self.sample_period = period_s;
