@@ -120,7 +120,6 @@ impl Mpc {
 
     /// The fallback inputs when no solve succeeded.
     fn fallback_input(&self, previous: &[f64]) -> (Vec<f64>, &'static str) {
-        let model = &self.ocp.plant().model;
         let planned = self.last.as_ref().and_then(|s| {
             let j = self.last_age;
             (j < self.ocp.horizon()).then(|| self.ocp.input(&s.x, j).to_vec())
@@ -129,12 +128,7 @@ impl Mpc {
             Some(u) => (u, "shifted_plan"),
             None => (previous.to_vec(), "hold_input"),
         };
-        for (i, decl) in model.inputs.iter().enumerate() {
-            if let Some(r) = decl.rate {
-                u[i] = u[i].clamp(previous[i] - r, previous[i] + r);
-            }
-            u[i] = u[i].clamp(decl.lower, decl.upper);
-        }
+        self.ocp.plant().apply_limits(previous, &mut u);
         (u, path)
     }
 }

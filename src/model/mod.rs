@@ -241,6 +241,18 @@ impl Plant {
         self.output.eval(&mut ws.output_ws, &ws.inputs, y);
     }
 
+    /// Clips `u` to `|u − u_prev| ≤ rate` and to the input bounds, as the season loop does
+    /// with every controller's input.
+    pub fn apply_limits(&self, previous: &[f64], u: &mut [f64]) {
+        for (i, decl) in self.model.inputs.iter().enumerate() {
+            let mut v = u[i];
+            if let Some(r) = decl.rate {
+                v = v.clamp(previous[i] - r, previous[i] + r);
+            }
+            u[i] = v.clamp(decl.lower, decl.upper);
+        }
+    }
+
     /// Penalties of the soft bands on the outputs `y` (scoring bounds).
     pub fn penalties(&self, y: &[f64]) -> Vec<StagePenalty> {
         self.model

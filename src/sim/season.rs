@@ -113,17 +113,6 @@ pub fn draw_params_into(plant: &Plant, delta: f64, rng: &mut ChaCha8Rng, params:
     }
 }
 
-/// Clips `u` to the bounds and to `|u − u_prev| ≤ rate`.
-pub fn apply_limits(plant: &Plant, previous: &[f64], u: &mut [f64]) {
-    for (i, decl) in plant.model.inputs.iter().enumerate() {
-        let mut v = u[i];
-        if let Some(r) = decl.rate {
-            v = v.clamp(previous[i] - r, previous[i] + r);
-        }
-        u[i] = v.clamp(decl.lower, decl.upper);
-    }
-}
-
 /// Runs one season from the model's initial state and start input.
 pub fn run_season(
     plant: &Plant,
@@ -189,7 +178,7 @@ pub fn run_season(
             });
         }
         if config.enforce_limits {
-            apply_limits(plant, &u_prev, &mut u);
+            plant.apply_limits(&u_prev, &mut u);
         }
         plant.step_into(&mut ws, &x, &u, d, &params, &mut out);
         if out.next_state.iter().any(|v| !v.is_finite()) {
