@@ -135,6 +135,7 @@ struct Work {
     dir_nu: Vec<f64>,
     corrected_g: Vec<f64>,
     restored_x: Vec<f64>,
+    restored_g: Vec<f64>,
     /// The curvature of the last direction.
     curvature: Curvature,
     /// For each Hessian entry, its block and position in the block.
@@ -165,6 +166,7 @@ impl Sqp {
         let hp = nlp.hessian_pattern();
         w.g.resize(m, 0.0);
         w.trial_g.resize(m, 0.0);
+        w.restored_g.resize(m, 0.0);
         w.gradient.resize(n, 0.0);
         w.trial_x.resize(n, 0.0);
         w.scratch.resize(n, 0.0);
@@ -331,7 +333,9 @@ impl Sqp {
     }
 
     /// Merit of the trial point after the NLP's feasibility restoration (if it has one);
-    /// on success the restored point replaces the trial point.
+    /// on success the restored point and its constraints replace the trial point's. The
+    /// trial point's constraint values stay as they are otherwise (the second-order
+    /// correction needs `g(x + d)`).
     fn restored_merit(&mut self, nlp: &mut dyn Nlp, bounds: &Bounds, penalty: f64) -> Option<f64> {
         let w = &mut self.work;
         w.restored_x.clone_from(&w.trial_x);
@@ -339,17 +343,17 @@ impl Sqp {
             return None;
         }
         project_into(&mut w.restored_x, bounds);
-        let f = nlp.objective(&w.restored_x);
-        nlp.constraints(&w.restored_x, &mut w.trial_g);
-        let merit = f + penalty * l1_violation(&w.trial_g, bounds);
+        let merit = merit_at(nlp, &w.restored_x, &mut w.restored_g, bounds, penalty);
         if !merit.is_finite() {
             return None;
         }
         w.trial_x.clone_from(&w.restored_x);
+        w.trial_g.clone_from(&w.restored_g);
         Some(merit)
     }
 
-    /// Merit of a trial point `x + d` (projected into the bounds); fills `trial_x`, `trial_g`.
+    /// Merit of a trial point `x + αd` (projected into the bounds); fills `trial_x`,
+    /// `trial_g`.
     fn trial_merit(
         &mut self,
         nlp: &mut dyn Nlp,
@@ -364,14 +368,19 @@ impl Sqp {
             *t = xi + alpha * di;
         }
         project_into(&mut w.trial_x, bounds);
-        let f = nlp.objective(&w.trial_x);
-        nlp.constraints(&w.trial_x, &mut w.trial_g);
-        let merit = f + penalty * l1_violation(&w.trial_g, bounds);
-        if merit.is_finite() {
-            merit
-        } else {
-            f64::INFINITY
-        }
+        merit_at(nlp, &w.trial_x, &mut w.trial_g, bounds, penalty)
+    }
+}
+
+/// The ℓ₁ merit `f + μ Σ violation(g)` at `x` (`+∞` when not finite); fills `g`.
+fn merit_at(nlp: &mut dyn Nlp, x: &[f64], g: &mut [f64], bounds: &Bounds, penalty: f64) -> f64 {
+    let f = nlp.objective(x);
+    nlp.constraints(x, g);
+    let merit = f + penalty * l1_violation(g, bounds);
+    if merit.is_finite() {
+        merit
+    } else {
+        f64::INFINITY
     }
 }
 
@@ -549,7 +558,7 @@ impl Solver for Sqp {
             // Every iteration first tries the plain QP step.
             let mut radius: f64 = 1.0;
             // Trust-region loop: a rejected full step shrinks the box on the inputs and
-            // the QP is solved again; a full step that reaches the box widens it.
+            // the QP is solved again.
             let mut accepted = false;
             let mut alpha = 1.0;
             let mut slope = 0.0;
@@ -575,9 +584,6 @@ impl Solver for Sqp {
                 let negligible = size <= 1e-9;
                 if negligible || sufficient(1.0, full) {
                     accepted = true;
-                    if size >= 0.5 * radius {
-                        radius = (2.0 * radius).min(1.0);
-                    }
                     break;
                 }
                 // Restoration: the NLP may map the trial point onto its constraints (an
