@@ -34,6 +34,7 @@ pub mod graph;
 pub mod lang;
 pub mod model;
 pub mod nlp;
+pub mod nn;
 pub mod report;
 pub mod rl;
 pub mod sim;

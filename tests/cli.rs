@@ -157,3 +157,46 @@ fn mpc_rejects_bad_horizons_with_a_message() {
         assert!(!err.contains("panicked"), "{err}");
     }
 }
+
+#[test]
+fn train_checkpoints_resumes_and_ships_a_policy_that_policy_runs() {
+    let dir = temp_dir("train");
+    let d = dir.to_str().expect("utf-8 temp path");
+    let short = ["--days", "0.5", "--warmup", "1", "--checkpoint-every", "1"];
+    let mut args = vec!["train", "models/lettuce.ghm", "--episodes", "2", "--out", d];
+    args.extend(short);
+    let (ok, out, err) = ghm(&args);
+    assert!(ok, "{err}");
+    assert!(out.contains("episode   2: reward"), "{out}");
+    let curve = std::fs::read_to_string(dir.join("learning_curve.csv")).expect("curve");
+    assert_eq!(curve.lines().count(), 1 + 2);
+    assert!(dir.join("learning_curve.png").is_file());
+    assert!(dir.join("checkpoint/state.json").is_file());
+    // A second training into the same folder is refused with advice.
+    let (ok, _, err) = ghm(&args);
+    assert!(!ok && err.contains("--resume"), "{err}");
+    // Resuming a finished training adds nothing; the policy runs a season.
+    let mut resume = vec!["train", "models/lettuce.ghm", "--resume", d];
+    resume.extend(short);
+    let (ok, out, err) = ghm(&resume);
+    assert!(ok && out.contains("resuming"), "{out}{err}");
+    let season = temp_dir("policy");
+    let s = season.to_str().expect("utf-8 temp path");
+    let (ok, out, err) = ghm(&[
+        "policy",
+        "models/lettuce.ghm",
+        "--agent",
+        d,
+        "--days",
+        "1",
+        "--out",
+        s,
+    ]);
+    assert!(ok, "{err}");
+    assert!(out.contains("cumulative reward"), "{out}");
+    assert!(season.join("trajectory.csv").is_file());
+    let (ok, _, err) = ghm(&["policy", "models/lettuce.ghm", "--agent", "no/such/agent"]);
+    assert!(!ok && err.contains("no policy at"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+    let _ = std::fs::remove_dir_all(&season);
+}

@@ -6,7 +6,9 @@ mod check;
 mod mpc;
 mod optimum;
 mod output;
+mod policy;
 mod simulate;
+mod train;
 mod weather_args;
 
 use clap::{Parser, Subcommand};
@@ -55,6 +57,10 @@ enum Command {
     Mpc(mpc::MpcArgs),
     /// Solve the whole season as one NLP with perfect foresight: the upper bound.
     Optimum(optimum::OptimumArgs),
+    /// Train a soft actor-critic agent on the model's season (resumable).
+    Train(train::TrainArgs),
+    /// Run a season with a trained policy.
+    Policy(policy::PolicyArgs),
 }
 
 /// Runs the command line; returns the process exit code.
@@ -65,6 +71,8 @@ pub fn main() -> i32 {
         Command::Simulate(a) => simulate::run(&a),
         Command::Mpc(a) => mpc::run(&a),
         Command::Optimum(a) => optimum::run(&a),
+        Command::Train(a) => train::run(&a),
+        Command::Policy(a) => policy::run(&a),
     };
     match result {
         Ok(()) => 0,

@@ -4,8 +4,10 @@
 //! implement the same trait.
 
 mod mpc;
+mod policy;
 
 pub use mpc::Mpc;
+pub use policy::Policy;
 
 use thiserror::Error;
 

@@ -138,25 +138,7 @@ impl Env {
                 needed: steps,
             });
         }
-        let mut scale = Vec::with_capacity(l.nu);
-        for decl in &plant.model.inputs {
-            // NaN bounds or lower > upper would make `f64::clamp` panic.
-            if decl.lower.is_nan() || decl.upper.is_nan() || decl.lower > decl.upper {
-                return Err(RlError::InputBounds {
-                    input: decl.info.name.clone(),
-                    lower: decl.lower,
-                    upper: decl.upper,
-                });
-            }
-            let s = decl.rate.unwrap_or(decl.upper - decl.lower);
-            if !(s.is_finite() && s >= 0.0) {
-                return Err(RlError::UnboundedInput {
-                    input: decl.info.name.clone(),
-                    scale: s,
-                });
-            }
-            scale.push(s);
-        }
+        let scale = action_scale(&plant)?;
         if let Some(u) = uncertainty {
             let w = u.delta * plant.model.uncertainty.spread;
             if !(u.delta.is_finite() && u.delta >= 0.0 && w.is_finite()) {
@@ -247,10 +229,14 @@ impl Env {
                 value: action[index],
             });
         }
-        for (i, (u, a)) in self.input.iter_mut().zip(action).enumerate() {
-            let v = self.previous_input[i] + a.clamp(-1.0, 1.0) * self.scale[i];
-            *u = v.clamp(self.lower[i], self.upper[i]);
-        }
+        input_from_action(
+            &self.previous_input,
+            action,
+            &self.scale,
+            &self.lower,
+            &self.upper,
+            &mut self.input,
+        );
         let d = self.weather.at(self.k);
         self.plant.step_into(
             &mut self.ws,
@@ -399,5 +385,48 @@ impl Env {
     /// The parametric uncertainty, if any.
     pub fn uncertainty(&self) -> Option<UncertaintyDraw> {
         self.uncertainty
+    }
+}
+
+/// Each input's action scale `δu`: its rate limit, or its range `upper − lower` when it has
+/// none.
+///
+/// Errors: [`RlError::InputBounds`] (NaN or reversed bounds), [`RlError::UnboundedInput`]
+/// (no rate limit and an infinite range).
+pub fn action_scale(plant: &Plant) -> Result<Vec<f64>, RlError> {
+    let mut scale = Vec::with_capacity(plant.layout.nu);
+    for decl in &plant.model.inputs {
+        // NaN bounds or lower > upper would make `f64::clamp` panic.
+        if decl.lower.is_nan() || decl.upper.is_nan() || decl.lower > decl.upper {
+            return Err(RlError::InputBounds {
+                input: decl.info.name.clone(),
+                lower: decl.lower,
+                upper: decl.upper,
+            });
+        }
+        let s = decl.rate.unwrap_or(decl.upper - decl.lower);
+        if !(s.is_finite() && s >= 0.0) {
+            return Err(RlError::UnboundedInput {
+                input: decl.info.name.clone(),
+                scale: s,
+            });
+        }
+        scale.push(s);
+    }
+    Ok(scale)
+}
+
+/// The action map `u = clip(u_prev + clip(a, −1, 1) ⊙ δu, lower, upper)`.
+pub fn input_from_action(
+    previous: &[f64],
+    action: &[f64],
+    scale: &[f64],
+    lower: &[f64],
+    upper: &[f64],
+    input: &mut [f64],
+) {
+    for (i, (u, a)) in input.iter_mut().zip(action).enumerate() {
+        let v = previous[i] + a.clamp(-1.0, 1.0) * scale[i];
+        *u = v.clamp(lower[i], upper[i]);
     }
 }

@@ -42,6 +42,14 @@ pub enum RlError {
     ObservationWidth { given: usize, expected: usize },
     #[error("a batch of {len} values does not fill rows of {width}")]
     BatchShape { len: usize, width: usize },
+    #[error("the replay buffer is empty")]
+    EmptyBuffer,
+    #[error("checkpoint {path}: {why}")]
+    Checkpoint { path: String, why: String },
+    #[error("agent setting {name}: {why}")]
+    BadConfig { name: &'static str, why: String },
+    #[error("the tensor back-end failed: {0}")]
+    Backend(String),
     #[error("normaliser setting {name} = {value} is invalid: {why}")]
     BadSetting {
         name: &'static str,

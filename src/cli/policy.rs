@@ -1,0 +1,74 @@
+//! `ghm policy`: a season driven by a trained deterministic policy (`policy.json` from
+//! `ghm train`), with the outputs of `ghm simulate`.
+
+use crate::cli::simulate::{run_season_and_report, SeasonArgs};
+use crate::cli::weather_args::WeatherArgs;
+use crate::cli::{load_model, CliError};
+use crate::control::Policy;
+use crate::model::Plant;
+use crate::rl::PolicyFile;
+use clap::Args;
+use serde_json::json;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+#[derive(Debug, Args)]
+pub struct PolicyArgs {
+    /// The model file (.ghm).
+    pub file: PathBuf,
+    /// The agent: a training folder of `ghm train` (its policy.json is used) or a policy file.
+    #[arg(long, value_name = "DIR")]
+    pub agent: PathBuf,
+    #[command(flatten)]
+    pub weather: WeatherArgs,
+    /// Parametric uncertainty δ of the plant (0 = nominal).
+    #[arg(long, value_name = "DELTA", default_value_t = 0.0)]
+    pub uncertainty: f64,
+    /// Seed of the parameter draws.
+    #[arg(long, value_name = "S", default_value_t = 4)]
+    pub seed: u64,
+    /// Run folder for trajectory.csv, summary.json and trajectory.png.
+    #[arg(long, value_name = "DIR", default_value = "runs/policy")]
+    pub out: PathBuf,
+}
+
+/// The policy file of an agent folder or file.
+pub(crate) fn load_policy(agent: &Path) -> Result<PolicyFile, CliError> {
+    let path = if agent.is_dir() {
+        agent.join("policy.json")
+    } else {
+        agent.to_path_buf()
+    };
+    if !path.is_file() {
+        return Err(CliError::Argument(format!(
+            "no policy at {}: pass a folder written by `ghm train` or its policy.json",
+            path.display()
+        )));
+    }
+    PolicyFile::load(&path).map_err(|e| CliError::Argument(e.to_string()))
+}
+
+pub fn run(args: &PolicyArgs) -> Result<(), CliError> {
+    let model = load_model(&args.file)?;
+    let plant = Arc::new(Plant::new(model));
+    let file = load_policy(&args.agent)?;
+    if file.model != plant.model.name {
+        eprintln!(
+            "warning: the policy was trained on model `{}`, this is `{}`",
+            file.model, plant.model.name
+        );
+    }
+    let extra = json!({ "agent": args.agent.display().to_string(), "agent_episode": file.episode });
+    let mut policy = Policy::new(&plant, file).map_err(|e| CliError::Argument(e.to_string()))?;
+    let season = SeasonArgs {
+        file: &args.file,
+        weather: &args.weather,
+        uncertainty: args.uncertainty,
+        seed: args.seed,
+        out: &args.out,
+        enforce_limits: true,
+        forecast: 0,
+    };
+    run_season_and_report(&season, &plant, &mut policy, extra)?;
+    Ok(())
+}

@@ -1,0 +1,347 @@
+//! `ghm train`: trains a soft actor-critic agent on a model's season, with a progress bar,
+//! a learning curve (CSV and PNG) rewritten after every episode, checkpoints every few
+//! episodes, and `--resume DIR` to continue an interrupted training exactly.
+//!
+//! The run folder holds `checkpoint/` (the full training state), `learning_curve.csv`,
+//! `learning_curve.png`, `policy.json` (the best evaluated deterministic policy, what
+//! `ghm policy` and RL-guided MPC load) and `summary.json`.
+
+use crate::cli::output::{create_dir, model_hash, write_summary};
+use crate::cli::weather_args::WeatherArgs;
+use crate::cli::{load_model, CliError};
+use crate::model::Plant;
+use crate::report::plot::{draw_xy, Line};
+use crate::rl::sac::{checkpoint, EpisodeRecord, SacConfig, StepProgress, Trainer};
+use crate::rl::Env;
+use crate::sim::season::UncertaintyDraw;
+use clap::Args;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use serde_json::json;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+#[derive(Debug, Args)]
+pub struct TrainArgs {
+    /// The model file (.ghm).
+    pub file: PathBuf,
+    #[command(flatten)]
+    pub weather: WeatherArgs,
+    /// Episodes in all (each one season), the random warm-up included.
+    #[arg(long, value_name = "N", default_value_t = 100)]
+    pub episodes: usize,
+    /// Episodes of random actions before learning starts.
+    #[arg(long, value_name = "N", default_value_t = 9)]
+    pub warmup: usize,
+    /// Train on the stochastic plant (parameters drawn per episode with --uncertainty).
+    #[arg(long)]
+    pub stochastic: bool,
+    /// Parametric uncertainty δ of the stochastic plant.
+    #[arg(long, value_name = "DELTA", default_value_t = 0.05)]
+    pub uncertainty: f64,
+    /// Seed of the training (weights, exploration, batches, parameter draws).
+    #[arg(long, value_name = "S", default_value_t = 4)]
+    pub seed: u64,
+    /// Write a checkpoint every N episodes (and at the end).
+    #[arg(long, value_name = "N", default_value_t = 5)]
+    pub checkpoint_every: usize,
+    /// Run folder.
+    #[arg(long, value_name = "DIR", default_value = "runs/train")]
+    pub out: PathBuf,
+    /// Continue the training whose checkpoint is in DIR (its settings are kept; the model
+    /// file and weather options must be the same as when it started).
+    #[arg(long, value_name = "DIR", conflicts_with = "out")]
+    pub resume: Option<PathBuf>,
+}
+
+pub fn run(args: &TrainArgs) -> Result<(), CliError> {
+    let model = load_model(&args.file)?;
+    let plant = Arc::new(Plant::new(model));
+    let steps = args.weather.steps(&plant.model)?;
+    let weather = args.weather.load(&plant.model, steps, 0)?;
+    if args.stochastic && !(args.uncertainty > 0.0 && args.uncertainty < 1.0) {
+        return Err(CliError::Argument(
+            "--stochastic needs --uncertainty in (0, 1)".into(),
+        ));
+    }
+    let uncertainty = args.stochastic.then_some(UncertaintyDraw {
+        delta: args.uncertainty,
+        seed: args.seed,
+    });
+    let env = Env::new(plant.clone(), weather, steps, uncertainty).map_err(rl)?;
+    let hash = model_hash(&plant);
+    let (dir, mut trainer) = match &args.resume {
+        Some(dir) => {
+            check_same_run(dir, &hash)?;
+            let trainer = Trainer::resume(env, dir).map_err(rl)?;
+            println!(
+                "resuming {} after episode {} of {}",
+                dir.display(),
+                trainer.episodes_done(),
+                trainer.config().episodes
+            );
+            (dir.clone(), trainer)
+        }
+        None => {
+            if checkpoint::exists(&args.out) {
+                return Err(CliError::Argument(format!(
+                    "{} already holds a training; continue it with --resume {} or choose another --out",
+                    args.out.display(),
+                    args.out.display()
+                )));
+            }
+            if args.checkpoint_every == 0 {
+                return Err(CliError::Argument(
+                    "--checkpoint-every must be at least 1".into(),
+                ));
+            }
+            let config = SacConfig {
+                episodes: args.episodes,
+                warmup_episodes: args.warmup,
+                seed: args.seed,
+                eval_episodes: if args.stochastic { 3 } else { 1 },
+                ..SacConfig::default()
+            };
+            let trainer = Trainer::new(env, config).map_err(rl)?;
+            create_dir(&args.out)?;
+            (args.out.clone(), trainer)
+        }
+    };
+    let meta = json!({
+        "command": std::env::args().collect::<Vec<_>>(),
+        "model": args.file.display().to_string(),
+        "model_name": plant.model.name,
+        "model_sha256": hash,
+        "weather": args.weather.describe(&plant.model),
+        "episode_steps": steps,
+        "stochastic": args.stochastic,
+        "uncertainty": if args.stochastic { args.uncertainty } else { 0.0 },
+    });
+    train(&mut trainer, &dir, &plant, args.checkpoint_every, &meta)
+}
+
+fn rl(e: crate::rl::RlError) -> CliError {
+    CliError::Argument(e.to_string())
+}
+
+/// Refuses to resume a training of another model.
+fn check_same_run(dir: &Path, hash: &str) -> Result<(), CliError> {
+    let path = dir.join("summary.json");
+    let Ok(text) = std::fs::read_to_string(&path) else {
+        return Ok(());
+    };
+    let summary: serde_json::Value = serde_json::from_str(&text)
+        .map_err(|e| CliError::Argument(format!("{}: {e}", path.display())))?;
+    match summary.get("model_sha256").and_then(|v| v.as_str()) {
+        Some(h) if h != hash => Err(CliError::Argument(format!(
+            "{} was trained on another model (sha256 {h}); pass the same model file",
+            dir.display()
+        ))),
+        _ => Ok(()),
+    }
+}
+
+fn train(
+    trainer: &mut Trainer,
+    dir: &Path,
+    plant: &Plant,
+    checkpoint_every: usize,
+    meta: &serde_json::Value,
+) -> Result<(), CliError> {
+    let config = trainer.config().clone();
+    let episode_steps = meta["episode_steps"].as_u64().unwrap_or(1);
+    let bar = ProgressBar::new((config.episodes as u64) * episode_steps);
+    if !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+        bar.set_draw_target(ProgressDrawTarget::hidden());
+    }
+    bar.set_style(
+        ProgressStyle::with_template("{bar:30} {percent:>3}% {msg} [{elapsed_precise}, eta {eta}]")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar.set_position((trainer.episodes_done() as u64) * episode_steps);
+    let unit = plant.model.objective_unit();
+    let started = Instant::now();
+    let mut session_steps = 0u64;
+    let mut last = trainer.curve().last().map(|r| r.reward);
+    while !trainer.is_finished() {
+        let episode_start = Instant::now();
+        let done_before = trainer.episodes_done() as u64;
+        let record = trainer
+            .run_episode(&mut |p: &StepProgress| {
+                let rate = p.step as f64 / episode_start.elapsed().as_secs_f64().max(1e-9);
+                bar.set_position(done_before * episode_steps + p.step as u64);
+                bar.set_message(format!(
+                    "episode {}/{} · last reward {} · {:.0} steps/s",
+                    p.episode,
+                    config.episodes,
+                    last.map_or("—".into(), |r| format!("{r:+.3} {unit}")),
+                    rate
+                ));
+            })
+            .map_err(rl)?;
+        session_steps += record.steps as u64;
+        last = Some(record.reward);
+        let line = describe(&record, &unit);
+        if bar.is_hidden() {
+            println!("{line}");
+        } else {
+            bar.println(line);
+        }
+        write_curve(dir, trainer.curve())?;
+        if record.episode % checkpoint_every == 0 || trainer.is_finished() {
+            save(trainer, dir, meta, &started, session_steps)?;
+        }
+    }
+    bar.finish_and_clear();
+    save(trainer, dir, meta, &started, session_steps)?;
+    match trainer.best() {
+        Some(b) => println!(
+            "best deterministic policy: episode {}, evaluation reward {:+.4} {unit}",
+            b.episode, b.eval_reward
+        ),
+        None => println!("no evaluation ran; policy.json holds the final policy"),
+    }
+    println!(
+        "wrote {0}/policy.json, learning_curve.csv, learning_curve.png, summary.json, checkpoint/",
+        dir.display()
+    );
+    Ok(())
+}
+
+fn describe(r: &EpisodeRecord, unit: &str) -> String {
+    let mut line = format!(
+        "episode {:>3}: reward {:+.4} {unit}{}",
+        r.episode,
+        r.reward,
+        if r.warmup { " (random warm-up)" } else { "" }
+    );
+    if let Some(e) = r.eval_reward {
+        line += &format!(", deterministic {e:+.4} {unit}");
+    }
+    if r.diverged {
+        line += &format!(", state diverged after {} steps", r.steps);
+    }
+    if !r.warmup {
+        line += &format!(", α {:.3}, critic loss {:.3e}", r.alpha, r.critic_loss);
+    }
+    line + &format!(", {:.1} s", r.wall_s)
+}
+
+/// Writes the checkpoint, the shipped policy and the summary.
+fn save(
+    trainer: &Trainer,
+    dir: &Path,
+    meta: &serde_json::Value,
+    started: &Instant,
+    session_steps: u64,
+) -> Result<(), CliError> {
+    trainer.save_checkpoint(dir).map_err(rl)?;
+    let name = meta["model_name"].as_str().unwrap_or("model");
+    trainer
+        .policy(name)
+        .and_then(|p| p.save(&dir.join("policy.json")))
+        .map_err(rl)?;
+    let curve = trainer.curve();
+    let wall: f64 = curve.iter().map(|r| r.wall_s).sum();
+    let steps: u64 = curve.iter().map(|r| r.steps as u64).sum();
+    let learning: Vec<&EpisodeRecord> = curve.iter().filter(|r| !r.warmup).collect();
+    let learning_wall: f64 = learning.iter().map(|r| r.wall_s).sum();
+    let updates: u64 = learning.iter().map(|r| r.steps as u64).sum();
+    let mut summary = meta.clone();
+    if let Some(map) = summary.as_object_mut() {
+        map.insert("config".into(), json!(trainer.config()));
+        map.insert("finished".into(), json!(trainer.is_finished()));
+        map.insert("episodes_done".into(), json!(curve.len()));
+        map.insert("environment_steps".into(), json!(steps));
+        map.insert("gradient_steps".into(), json!(updates));
+        map.insert("training_wall_s".into(), json!(wall));
+        map.insert(
+            "learning_steps_per_s".into(),
+            json!(if learning_wall > 0.0 {
+                updates as f64 / learning_wall
+            } else {
+                0.0
+            }),
+        );
+        map.insert(
+            "this_session".into(),
+            json!({ "wall_s": started.elapsed().as_secs_f64(), "environment_steps": session_steps }),
+        );
+        map.insert(
+            "last_episode_reward".into(),
+            json!(curve.last().map(|r| r.reward)),
+        );
+        map.insert(
+            "best".into(),
+            json!(trainer
+                .best()
+                .map(|b| json!({ "episode": b.episode, "eval_reward": b.eval_reward }))),
+        );
+        map.insert(
+            "diverged_episodes".into(),
+            json!(curve.iter().filter(|r| r.diverged).count()),
+        );
+    }
+    write_summary(dir, &summary)
+}
+
+/// `learning_curve.csv` and `learning_curve.png`.
+fn write_curve(dir: &Path, curve: &[EpisodeRecord]) -> Result<(), CliError> {
+    let path = dir.join("learning_curve.csv");
+    let fail = |e: std::io::Error| CliError::Output {
+        path: path.clone(),
+        message: e.to_string(),
+    };
+    let mut out = std::io::BufWriter::new(std::fs::File::create(&path).map_err(fail)?);
+    writeln!(
+        out,
+        "episode,total_steps,steps,reward,eval_reward,warmup,diverged,critic_loss,actor_loss,alpha,entropy,wall_s"
+    )
+    .map_err(fail)?;
+    for r in curve {
+        writeln!(
+            out,
+            "{},{},{},{},{},{},{},{},{},{},{},{:.3}",
+            r.episode,
+            r.total_steps,
+            r.steps,
+            r.reward,
+            r.eval_reward.map_or(String::new(), |e| e.to_string()),
+            r.warmup,
+            r.diverged,
+            r.critic_loss,
+            r.actor_loss,
+            r.alpha,
+            r.entropy,
+            r.wall_s
+        )
+        .map_err(fail)?;
+    }
+    out.flush().map_err(fail)?;
+    let x: Vec<f64> = curve.iter().map(|r| r.episode as f64).collect();
+    let training = Line {
+        label: "training episode".into(),
+        values: curve.iter().map(|r| r.reward).collect(),
+    };
+    let evaluation = Line {
+        label: "deterministic policy".into(),
+        values: curve
+            .iter()
+            .map(|r| r.eval_reward.unwrap_or(f64::NAN))
+            .collect(),
+    };
+    let png = dir.join("learning_curve.png");
+    draw_xy(
+        "SAC learning curve",
+        "episode",
+        "cumulative reward",
+        &x,
+        &[training, evaluation],
+        &png,
+    )
+    .map_err(|e| CliError::Output {
+        path: png.clone(),
+        message: e.to_string(),
+    })
+}

@@ -1,0 +1,17 @@
+//! Neural networks as plain weights: a multi-layer perceptron ([`Mlp`]) that evaluates over
+//! any dual number type, so that a trained policy or value function enters the optimal
+//! control problem with exact gradients and Hessians like every other term; that expands
+//! into the expression [`Graph`](crate::graph::Graph) when a model wants it as nodes; and that
+//! reads and writes a small JSON file.
+//!
+//! * [`mlp`]: layers, activations, evaluation, graph expansion, files;
+//! * [`error`]: the error type [`NnError`].
+//!
+//! Architecture invariant: `nn` knows no training framework. Networks trained with burn
+//! (in [`rl`](crate::rl)) are exported into these weights; nothing here depends on burn.
+
+pub mod error;
+pub mod mlp;
+
+pub use error::NnError;
+pub use mlp::{Activation, Dense, Mlp};

@@ -1,0 +1,163 @@
+//! Training checkpoints: everything a [`Trainer`] needs to continue exactly where it
+//! stopped, in a folder `DIR/checkpoint/`:
+//!
+//! * `state.json`: the configuration, the agent (networks and Adam moments, `f32` values
+//!   written in their shortest exact decimal form), the observation statistics, the
+//!   generator's seed, stream and position, the learning curve and the best policy;
+//! * `buffer.bin`: the replay buffer ([`ReplayBuffer::save`]).
+//!
+//! A checkpoint is written to `checkpoint.partial/` and then swapped in by renames, so an
+//! interruption while writing leaves the previous checkpoint (as `checkpoint/` or, between
+//! the two renames, `checkpoint.previous/`, which [`read`] falls back to).
+
+use crate::rl::buffer::ReplayBuffer;
+use crate::rl::sac::agent::Sac;
+use crate::rl::sac::net::Net;
+use crate::rl::sac::trainer::{BestPolicy, EpisodeRecord, SacConfig, Trainer};
+use crate::rl::{Normalizer, RlError};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// The contents of a checkpoint.
+pub struct Checkpoint {
+    pub config: SacConfig,
+    pub agent: Sac,
+    pub buffer: ReplayBuffer,
+    pub normalizer: Normalizer,
+    pub rng: ChaCha8Rng,
+    pub total_steps: u64,
+    pub curve: Vec<EpisodeRecord>,
+    pub best: Option<BestPolicy>,
+}
+
+#[derive(Serialize, Deserialize)]
+struct State {
+    format: u32,
+    config: SacConfig,
+    agent: Sac,
+    normalizer: Normalizer,
+    rng_seed: [u8; 32],
+    rng_stream: u64,
+    /// `u128` as a decimal string (JSON numbers stop at 64 bits).
+    rng_word_pos: String,
+    total_steps: u64,
+    curve: Vec<EpisodeRecord>,
+    best: Option<BestState>,
+}
+
+#[derive(Serialize, Deserialize)]
+struct BestState {
+    eval_reward: f64,
+    episode: usize,
+    actor: Net,
+    normalizer: Normalizer,
+}
+
+const FORMAT: u32 = 1;
+
+fn fail(path: &Path, why: impl std::fmt::Display) -> RlError {
+    RlError::Checkpoint {
+        path: path.display().to_string(),
+        why: why.to_string(),
+    }
+}
+
+/// Writes `trainer`'s checkpoint into `dir/checkpoint/`.
+pub fn write(trainer: &Trainer, dir: &Path) -> Result<(), RlError> {
+    let partial = dir.join("checkpoint.partial");
+    let current = dir.join("checkpoint");
+    let previous = dir.join("checkpoint.previous");
+    if partial.exists() {
+        std::fs::remove_dir_all(&partial).map_err(|e| fail(&partial, e))?;
+    }
+    std::fs::create_dir_all(&partial).map_err(|e| fail(&partial, e))?;
+    let state = State {
+        format: FORMAT,
+        config: trainer.config.clone(),
+        agent: trainer.agent.clone(),
+        normalizer: trainer.normalizer.clone(),
+        rng_seed: trainer.rng.get_seed(),
+        rng_stream: trainer.rng.get_stream(),
+        rng_word_pos: trainer.rng.get_word_pos().to_string(),
+        total_steps: trainer.total_steps,
+        curve: trainer.curve.clone(),
+        best: trainer.best.as_ref().map(|b| BestState {
+            eval_reward: b.eval_reward,
+            episode: b.episode,
+            actor: b.actor.clone(),
+            normalizer: b.normalizer.clone(),
+        }),
+    };
+    let state_path = partial.join("state.json");
+    let text = serde_json::to_string(&state).map_err(|e| fail(&state_path, e))?;
+    std::fs::write(&state_path, text).map_err(|e| fail(&state_path, e))?;
+    let buffer_path = partial.join("buffer.bin");
+    trainer
+        .buffer
+        .save(&buffer_path)
+        .map_err(|e| fail(&buffer_path, e))?;
+    if previous.exists() {
+        std::fs::remove_dir_all(&previous).map_err(|e| fail(&previous, e))?;
+    }
+    if current.exists() {
+        std::fs::rename(&current, &previous).map_err(|e| fail(&current, e))?;
+    }
+    std::fs::rename(&partial, &current).map_err(|e| fail(&partial, e))?;
+    if previous.exists() {
+        std::fs::remove_dir_all(&previous).map_err(|e| fail(&previous, e))?;
+    }
+    Ok(())
+}
+
+/// Whether `dir` holds a checkpoint.
+pub fn exists(dir: &Path) -> bool {
+    checkpoint_folder(dir).is_some()
+}
+
+fn checkpoint_folder(dir: &Path) -> Option<PathBuf> {
+    ["checkpoint", "checkpoint.previous"]
+        .iter()
+        .map(|name| dir.join(name))
+        .find(|p| p.join("state.json").is_file() && p.join("buffer.bin").is_file())
+}
+
+/// Reads the checkpoint in `dir`.
+pub fn read(dir: &Path) -> Result<Checkpoint, RlError> {
+    let folder = checkpoint_folder(dir)
+        .ok_or_else(|| fail(dir, "no checkpoint here (expected checkpoint/state.json)"))?;
+    let state_path = folder.join("state.json");
+    let text = std::fs::read_to_string(&state_path).map_err(|e| fail(&state_path, e))?;
+    let state: State = serde_json::from_str(&text).map_err(|e| fail(&state_path, e))?;
+    if state.format != FORMAT {
+        return Err(fail(
+            &state_path,
+            format!("format {} (this ghm reads {FORMAT})", state.format),
+        ));
+    }
+    let buffer_path = folder.join("buffer.bin");
+    let buffer = ReplayBuffer::load(&buffer_path).map_err(|e| fail(&buffer_path, e))?;
+    let word_pos: u128 = state
+        .rng_word_pos
+        .parse()
+        .map_err(|e| fail(&state_path, format!("generator position: {e}")))?;
+    let mut rng = ChaCha8Rng::from_seed(state.rng_seed);
+    rng.set_stream(state.rng_stream);
+    rng.set_word_pos(word_pos);
+    Ok(Checkpoint {
+        config: state.config,
+        agent: state.agent,
+        buffer,
+        normalizer: state.normalizer,
+        rng,
+        total_steps: state.total_steps,
+        curve: state.curve,
+        best: state.best.map(|b| BestPolicy {
+            eval_reward: b.eval_reward,
+            episode: b.episode,
+            actor: b.actor,
+            normalizer: b.normalizer,
+        }),
+    })
+}

@@ -1,0 +1,496 @@
+//! The training loop: episodes of an [`Env`], a random warm-up, one SAC gradient step per
+//! environment step after it, periodic deterministic evaluation, and checkpoints from
+//! which a training continues exactly.
+//!
+//! It follows Stable-Baselines3's `SAC.learn` with `VecNormalize` as the paper's code
+//! configures it (`../shared/spec/reference-numbers.md` §3):
+//!
+//! * the first `warmup_episodes` episodes act uniformly at random in `[−1, 1]^nu`;
+//! * every later environment step is followed by one gradient step on a batch drawn
+//!   uniformly from the replay buffer;
+//! * the learning rate decays linearly from its initial value to zero over the planned
+//!   `episodes × steps` environment steps;
+//! * the observation statistics are updated with every observation the training episodes
+//!   see (reset observations included) and frozen for evaluation;
+//! * the season's last step is terminal (`done`: no bootstrap beyond the season);
+//! * an episode whose state stops being finite ends there (its last transition is
+//!   dropped) and is counted in the learning curve.
+//!
+//! Reproducibility: one ChaCha8 generator, seeded from the configuration, draws the
+//! initial weights, the warm-up actions, the exploration noise, the batches and the
+//! reparameterisation noise. A stochastic environment is reseeded at each episode from
+//! the seed and the episode number. A checkpoint stores the generator's position with the
+//! agent, buffer and statistics, so a resumed training is bit-for-bit the uninterrupted one.
+
+use crate::nn::Activation;
+use crate::rl::buffer::{Batch, ReplayBuffer};
+use crate::rl::policy::PolicyFile;
+use crate::rl::sac::agent::{Sac, UpdateStats};
+use crate::rl::sac::checkpoint::{self, Checkpoint};
+use crate::rl::sac::net::Net;
+use crate::rl::{Env, Normalizer, RlError};
+use burn::tensor::Device;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+use std::time::Instant;
+
+/// Training settings; the defaults are the paper's (`reference-numbers.md` §3).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct SacConfig {
+    /// Hidden layer widths of the actor and of each critic.
+    pub hidden: Vec<usize>,
+    pub gamma: f64,
+    /// Initial learning rate, decaying linearly to zero.
+    pub learning_rate: f64,
+    pub batch_size: usize,
+    pub buffer_size: usize,
+    /// Episodes of uniformly random actions before learning starts.
+    pub warmup_episodes: usize,
+    /// Episodes in all, warm-up included.
+    pub episodes: usize,
+    /// Polyak coefficient of the target critics.
+    pub tau: f64,
+    /// Target entropy; `None` means `−(number of inputs)`, SB3's `'auto'`.
+    pub target_entropy: Option<f64>,
+    pub seed: u64,
+    /// Evaluate the deterministic policy every this many episodes (0: never).
+    pub eval_every: usize,
+    /// Episodes per evaluation (a deterministic environment needs one).
+    pub eval_episodes: usize,
+}
+
+impl Default for SacConfig {
+    fn default() -> SacConfig {
+        SacConfig {
+            hidden: vec![128, 128],
+            gamma: 0.95,
+            learning_rate: 5e-3,
+            batch_size: 1024,
+            buffer_size: 100_000,
+            warmup_episodes: 9,
+            episodes: 100,
+            tau: 0.005,
+            target_entropy: None,
+            seed: 4,
+            eval_every: 2,
+            eval_episodes: 1,
+        }
+    }
+}
+
+impl SacConfig {
+    fn validate(&self) -> Result<(), RlError> {
+        let bad = |name: &'static str, why: &str| {
+            Err(RlError::BadConfig {
+                name,
+                why: why.to_string(),
+            })
+        };
+        if self.hidden.is_empty() || self.hidden.contains(&0) {
+            return bad("hidden", "needs at least one layer, each at least one wide");
+        }
+        if !(self.gamma > 0.0 && self.gamma <= 1.0) {
+            return bad("gamma", "must lie in (0, 1]");
+        }
+        if !(self.learning_rate > 0.0 && self.learning_rate.is_finite()) {
+            return bad("learning_rate", "must be positive");
+        }
+        if self.batch_size == 0 || self.buffer_size == 0 {
+            return bad("batch_size", "batch and buffer sizes must be positive");
+        }
+        if self.episodes == 0 {
+            return bad("episodes", "must be at least one");
+        }
+        if !(self.tau > 0.0 && self.tau <= 1.0) {
+            return bad("tau", "must lie in (0, 1]");
+        }
+        if self.eval_every > 0 && self.eval_episodes == 0 {
+            return bad("eval_episodes", "must be at least one when evaluating");
+        }
+        Ok(())
+    }
+}
+
+/// One row of the learning curve.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EpisodeRecord {
+    /// 1-based episode number.
+    pub episode: usize,
+    /// Environment steps taken so far in the training.
+    pub total_steps: u64,
+    /// Steps of this episode (short when the state diverged).
+    pub steps: usize,
+    /// Cumulative reward of the training episode (exploration included).
+    pub reward: f64,
+    pub warmup: bool,
+    pub diverged: bool,
+    /// Mean cumulative reward of the deterministic policy, when evaluated after this episode.
+    pub eval_reward: Option<f64>,
+    /// Means over the episode's gradient steps (zero in the warm-up).
+    pub critic_loss: f64,
+    pub actor_loss: f64,
+    pub alpha: f64,
+    pub entropy: f64,
+    /// Wall time of the episode, seconds.
+    pub wall_s: f64,
+}
+
+/// Where a running episode is, for progress bars.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepProgress {
+    pub episode: usize,
+    pub step: usize,
+    pub total_steps: u64,
+    pub reward: f64,
+}
+
+/// The best evaluated policy so far.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BestPolicy {
+    pub eval_reward: f64,
+    pub episode: usize,
+    pub actor: Net,
+    pub normalizer: Normalizer,
+}
+
+/// A SAC training over an environment. See the [module documentation](self).
+pub struct Trainer {
+    pub(crate) config: SacConfig,
+    env: Env,
+    eval_env: Env,
+    pub(crate) agent: Sac,
+    pub(crate) buffer: ReplayBuffer,
+    pub(crate) normalizer: Normalizer,
+    pub(crate) rng: ChaCha8Rng,
+    pub(crate) total_steps: u64,
+    pub(crate) curve: Vec<EpisodeRecord>,
+    pub(crate) best: Option<BestPolicy>,
+    device: Device,
+    batch: Batch,
+}
+
+impl Trainer {
+    /// A new training over `env` (deterministic or stochastic).
+    pub fn new(env: Env, config: SacConfig) -> Result<Trainer, RlError> {
+        config.validate()?;
+        let mut rng = ChaCha8Rng::seed_from_u64(config.seed);
+        let (ow, aw) = (env.observation_len(), env.action_len());
+        let agent = Sac::new(ow, aw, &config.hidden, &mut rng);
+        Ok(Trainer {
+            buffer: ReplayBuffer::new(ow, aw, config.buffer_size),
+            normalizer: Normalizer::new(ow),
+            eval_env: env.clone(),
+            env,
+            agent,
+            rng,
+            total_steps: 0,
+            curve: Vec::new(),
+            best: None,
+            device: Device::flex().autodiff(),
+            batch: Batch::default(),
+            config,
+        })
+    }
+
+    /// Continues the training whose checkpoint is in `dir` (written by
+    /// [`Trainer::save_checkpoint`]) over `env`, which must be the same environment.
+    pub fn resume(env: Env, dir: &Path) -> Result<Trainer, RlError> {
+        let Checkpoint {
+            config,
+            agent,
+            buffer,
+            normalizer,
+            rng,
+            total_steps,
+            curve,
+            best,
+        } = checkpoint::read(dir)?;
+        if agent.observation_width != env.observation_len()
+            || agent.action_width != env.action_len()
+        {
+            return Err(RlError::Checkpoint {
+                path: dir.display().to_string(),
+                why: format!(
+                    "the agent observes {} values and sets {} inputs; this model has {} and {}",
+                    agent.observation_width,
+                    agent.action_width,
+                    env.observation_len(),
+                    env.action_len()
+                ),
+            });
+        }
+        config.validate()?;
+        Ok(Trainer {
+            config,
+            eval_env: env.clone(),
+            env,
+            agent,
+            buffer,
+            normalizer,
+            rng,
+            total_steps,
+            curve,
+            best,
+            device: Device::flex().autodiff(),
+            batch: Batch::default(),
+        })
+    }
+
+    /// Writes a checkpoint into `dir` (atomically: a crash leaves the previous one).
+    pub fn save_checkpoint(&self, dir: &Path) -> Result<(), RlError> {
+        checkpoint::write(self, dir)
+    }
+
+    pub fn config(&self) -> &SacConfig {
+        &self.config
+    }
+
+    pub fn agent(&self) -> &Sac {
+        &self.agent
+    }
+
+    pub fn curve(&self) -> &[EpisodeRecord] {
+        &self.curve
+    }
+
+    pub fn best(&self) -> Option<&BestPolicy> {
+        self.best.as_ref()
+    }
+
+    pub fn normalizer(&self) -> &Normalizer {
+        &self.normalizer
+    }
+
+    /// Episodes completed.
+    pub fn episodes_done(&self) -> usize {
+        self.curve.len()
+    }
+
+    pub fn is_finished(&self) -> bool {
+        self.curve.len() >= self.config.episodes
+    }
+
+    fn planned_steps(&self) -> u64 {
+        (self.config.episodes * self.env.episode_len()) as u64
+    }
+
+    fn target_entropy(&self) -> f64 {
+        self.config
+            .target_entropy
+            .unwrap_or(-(self.agent.action_width as f64))
+    }
+
+    /// Runs the next episode (and an evaluation when one is due) and returns its record.
+    pub fn run_episode(
+        &mut self,
+        on_step: &mut dyn FnMut(&StepProgress),
+    ) -> Result<EpisodeRecord, RlError> {
+        let started = Instant::now();
+        let episode = self.curve.len() + 1;
+        let warmup = episode <= self.config.warmup_episodes;
+        self.env.reseed(episode_seed(self.config.seed, episode));
+        let mut observation = self.env.reset().to_vec();
+        self.normalizer.update(&observation)?;
+        let (mut reward, mut steps, mut diverged) = (0.0, 0, false);
+        let mut sums = [0.0f64; 4];
+        let mut updates = 0usize;
+        let mut standard = vec![0.0; observation.len()];
+        let mut standard_f32 = vec![0.0f32; observation.len()];
+        loop {
+            let action: Vec<f64> = if warmup {
+                (0..self.agent.action_width)
+                    .map(|_| self.rng.random_range(-1.0..=1.0))
+                    .collect()
+            } else {
+                self.normalizer.normalize(&observation, &mut standard)?;
+                for (s, v) in standard_f32.iter_mut().zip(&standard) {
+                    *s = *v as f32;
+                }
+                self.agent.act(&standard_f32, false, &mut self.rng)
+            };
+            let (next, step_reward, done) = match self.env.step(&action) {
+                Ok(t) => (t.observation.to_vec(), t.reward, t.done),
+                Err(RlError::Diverged { .. }) => {
+                    diverged = true;
+                    break;
+                }
+                Err(e) => return Err(e),
+            };
+            self.normalizer.update(&next)?;
+            self.buffer
+                .push(&observation, &action, step_reward, &next, done)?;
+            self.total_steps += 1;
+            reward += step_reward;
+            steps += 1;
+            if !warmup {
+                let stats = self.gradient_step()?;
+                for (s, v) in sums.iter_mut().zip([
+                    stats.critic_loss,
+                    stats.actor_loss,
+                    stats.alpha,
+                    stats.entropy,
+                ]) {
+                    *s += f64::from(v);
+                }
+                updates += 1;
+            }
+            observation = next;
+            if steps % 64 == 0 || done {
+                on_step(&StepProgress {
+                    episode,
+                    step: steps,
+                    total_steps: self.total_steps,
+                    reward,
+                });
+            }
+            if done {
+                break;
+            }
+        }
+        let mean = |s: f64| if updates > 0 { s / updates as f64 } else { 0.0 };
+        let eval_reward = if self.config.eval_every > 0 && episode % self.config.eval_every == 0 {
+            Some(self.evaluate()?)
+        } else {
+            None
+        };
+        let record = EpisodeRecord {
+            episode,
+            total_steps: self.total_steps,
+            steps,
+            reward,
+            warmup,
+            diverged,
+            eval_reward,
+            critic_loss: mean(sums[0]),
+            actor_loss: mean(sums[1]),
+            alpha: mean(sums[2]),
+            entropy: mean(sums[3]),
+            wall_s: started.elapsed().as_secs_f64(),
+        };
+        self.curve.push(record.clone());
+        Ok(record)
+    }
+
+    fn gradient_step(&mut self) -> Result<UpdateStats, RlError> {
+        let progress_remaining = 1.0 - self.total_steps as f64 / self.planned_steps() as f64;
+        let lr = (self.config.learning_rate * progress_remaining.max(0.0)) as f32;
+        self.buffer.sample(
+            self.config.batch_size,
+            &mut self.rng,
+            &self.normalizer,
+            &mut self.batch,
+        )?;
+        self.agent.update(
+            &self.batch,
+            lr,
+            self.config.gamma as f32,
+            self.config.tau as f32,
+            self.target_entropy() as f32,
+            &mut self.rng,
+            &self.device,
+        )
+    }
+
+    /// Mean cumulative reward of the deterministic policy with frozen statistics; keeps
+    /// the best policy so far (a policy whose state diverged in an evaluation episode
+    /// scores its reward up to there and is never kept).
+    pub fn evaluate(&mut self) -> Result<f64, RlError> {
+        let mut normalizer = self.normalizer.clone();
+        normalizer.freeze();
+        let (mut total, mut any_diverged) = (0.0, false);
+        for e in 0..self.config.eval_episodes {
+            self.eval_env
+                .reseed(episode_seed(self.config.seed ^ 0x5eed, e + 1));
+            let (reward, diverged) =
+                run_deterministic(&mut self.eval_env, &self.agent.actor, &normalizer)?;
+            total += reward;
+            any_diverged |= diverged;
+        }
+        let mean = total / self.config.eval_episodes as f64;
+        if !any_diverged && self.best.as_ref().is_none_or(|b| mean > b.eval_reward) {
+            self.best = Some(BestPolicy {
+                eval_reward: mean,
+                episode: self.curve.len() + 1,
+                actor: self.agent.actor.clone(),
+                normalizer,
+            });
+        }
+        Ok(mean)
+    }
+
+    /// The policy to ship: the best evaluated one, or the current one if none was
+    /// evaluated.
+    pub fn policy(&self, model_name: &str) -> Result<PolicyFile, RlError> {
+        let (actor, normalizer, eval_reward, episode) = match &self.best {
+            Some(b) => (
+                &b.actor,
+                b.normalizer.clone(),
+                Some(b.eval_reward),
+                b.episode,
+            ),
+            None => {
+                let mut n = self.normalizer.clone();
+                n.freeze();
+                (&self.agent.actor, n, None, self.curve.len())
+            }
+        };
+        let mean_head = actor
+            .to_mlp(Activation::Identity)
+            .and_then(|m| m.with_output_rows(0..self.agent.action_width))
+            .map_err(|e| RlError::Backend(e.to_string()))?
+            .with_output_activation(Activation::Tanh);
+        Ok(PolicyFile {
+            model: model_name.to_string(),
+            observation_names: self.env.observation_names(),
+            normalizer,
+            actor: mean_head,
+            episode,
+            eval_reward,
+        })
+    }
+}
+
+/// Cumulative reward of one deterministic episode, and whether its state diverged (the
+/// reward then runs up to the divergence).
+fn run_deterministic(
+    env: &mut Env,
+    actor: &Net,
+    normalizer: &Normalizer,
+) -> Result<(f64, bool), RlError> {
+    let mut observation = env.reset().to_vec();
+    let mut standard = vec![0.0; observation.len()];
+    let mut input = vec![0.0f32; observation.len()];
+    let mut out = Vec::new();
+    let aw = env.action_len();
+    let mut total = 0.0;
+    loop {
+        normalizer.normalize(&observation, &mut standard)?;
+        for (i, s) in input.iter_mut().zip(&standard) {
+            *i = *s as f32;
+        }
+        actor.forward_one(&input, &mut out);
+        let action: Vec<f64> = out[..aw].iter().map(|m| f64::from(m.tanh())).collect();
+        match env.step(&action) {
+            Ok(t) => {
+                total += t.reward;
+                if t.done {
+                    return Ok((total, false));
+                }
+                observation.copy_from_slice(t.observation);
+            }
+            Err(RlError::Diverged { .. }) => return Ok((total, true)),
+            Err(e) => return Err(e),
+        }
+    }
+}
+
+/// The environment seed of an episode: a hash of the training seed and the episode number.
+fn episode_seed(seed: u64, episode: usize) -> u64 {
+    let mut z = seed ^ (episode as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
