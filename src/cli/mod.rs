@@ -3,12 +3,15 @@
 //! panics on user input.
 
 mod check;
+mod guide;
 mod mpc;
 mod optimum;
 mod output;
 mod policy;
+mod rlmpc;
 mod simulate;
 mod train;
+mod value;
 mod weather_args;
 
 use clap::{Parser, Subcommand};
@@ -61,6 +64,10 @@ enum Command {
     Train(train::TrainArgs),
     /// Run a season with a trained policy.
     Policy(policy::PolicyArgs),
+    /// Fit the value network of RL-guided MPC to a guide's returns.
+    Value(value::ValueArgs),
+    /// Run a season of RL-guided MPC (learned terminal cost, terminal region, guide warm start).
+    Rlmpc(rlmpc::RlmpcArgs),
 }
 
 /// Runs the command line; returns the process exit code.
@@ -73,6 +80,8 @@ pub fn main() -> i32 {
         Command::Optimum(a) => optimum::run(&a),
         Command::Train(a) => train::run(&a),
         Command::Policy(a) => policy::run(&a),
+        Command::Value(a) => value::run(&a),
+        Command::Rlmpc(a) => rlmpc::run(&a),
     };
     match result {
         Ok(()) => 0,

@@ -76,6 +76,7 @@ impl TrajectoryWriter {
                 "iterations",
                 "status",
                 "fallback",
+                "terminal_region",
             ]
             .map(String::from),
         );
@@ -126,6 +127,7 @@ impl StepSink for TrajectoryWriter {
         row.push(log.record.iterations.to_string());
         row.push(log.record.status.clone());
         row.push(log.record.fallback.clone().unwrap_or_default());
+        row.push(log.record.terminal_region.clone().unwrap_or_default());
         writeln!(self.out, "{}", row.join(",")).map_err(|e| e.to_string())?;
         if (log.step + 1) % self.steps_per_day == 0 {
             self.out.flush().map_err(|e| e.to_string())?;

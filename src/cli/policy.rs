@@ -1,10 +1,12 @@
 //! `ghm policy`: a season driven by a trained deterministic policy (`policy.json` from
-//! `ghm train`), with the outputs of `ghm simulate`.
+//! `ghm train`, or the agent shipped for the model) or by the rule-based expert, with the
+//! outputs of `ghm simulate`.
 
+use crate::cli::guide::resolve_policy;
 use crate::cli::simulate::{run_season_and_report, SeasonArgs};
 use crate::cli::weather_args::WeatherArgs;
 use crate::cli::{load_model, CliError};
-use crate::control::Policy;
+use crate::control::{Controller, Expert, Policy};
 use crate::model::Plant;
 use crate::rl::PolicyFile;
 use clap::Args;
@@ -16,9 +18,13 @@ use std::sync::Arc;
 pub struct PolicyArgs {
     /// The model file (.ghm).
     pub file: PathBuf,
-    /// The agent: a training folder of `ghm train` (its policy.json is used) or a policy file.
+    /// The agent: a training folder of `ghm train` (its policy.json is used) or a policy
+    /// file. Default: the agent shipped for the model under models/agents/.
     #[arg(long, value_name = "DIR")]
-    pub agent: PathBuf,
+    pub agent: Option<PathBuf>,
+    /// Run the rule-based expert instead of a trained agent.
+    #[arg(long, conflicts_with = "agent")]
+    pub expert: bool,
     #[command(flatten)]
     pub weather: WeatherArgs,
     /// Parametric uncertainty δ of the plant (0 = nominal).
@@ -51,15 +57,24 @@ pub(crate) fn load_policy(agent: &Path) -> Result<PolicyFile, CliError> {
 pub fn run(args: &PolicyArgs) -> Result<(), CliError> {
     let model = load_model(&args.file)?;
     let plant = Arc::new(Plant::new(model));
-    let file = load_policy(&args.agent)?;
-    if file.model != plant.model.name {
-        eprintln!(
-            "warning: the policy was trained on model `{}`, this is `{}`",
-            file.model, plant.model.name
-        );
-    }
-    let extra = json!({ "agent": args.agent.display().to_string(), "agent_episode": file.episode });
-    let mut policy = Policy::new(&plant, file).map_err(|e| CliError::Argument(e.to_string()))?;
+    let (mut controller, extra): (Box<dyn Controller>, _) = if args.expert {
+        let expert = Expert::new(plant.clone()).map_err(|e| CliError::Argument(e.to_string()))?;
+        (Box::new(expert), json!({ "agent": "expert" }))
+    } else {
+        let file = resolve_policy(&args.file, args.agent.as_deref())?;
+        if file.model != plant.model.name {
+            eprintln!(
+                "warning: the policy was trained on model `{}`, this is `{}`",
+                file.model, plant.model.name
+            );
+        }
+        let extra = json!({
+            "agent": args.agent.as_ref().map_or("shipped".into(), |a| a.display().to_string()),
+            "agent_episode": file.episode,
+        });
+        let policy = Policy::new(&plant, file).map_err(|e| CliError::Argument(e.to_string()))?;
+        (Box::new(policy), extra)
+    };
     let season = SeasonArgs {
         file: &args.file,
         weather: &args.weather,
@@ -69,6 +84,6 @@ pub fn run(args: &PolicyArgs) -> Result<(), CliError> {
         enforce_limits: true,
         forecast: 0,
     };
-    run_season_and_report(&season, &plant, &mut policy, extra)?;
+    run_season_and_report(&season, &plant, controller.as_mut(), extra)?;
     Ok(())
 }

@@ -3,11 +3,17 @@
 //! record of what it did. Fixed and tabulated inputs live here; MPC and learned policies
 //! implement the same trait.
 
+mod expert;
 mod mpc;
 mod policy;
+mod rlmpc;
+mod value;
 
-pub use mpc::Mpc;
+pub use expert::Expert;
+pub use mpc::{Guidance, Mpc};
 pub use policy::Policy;
+pub use rlmpc::{RlGuidance, RlMpcOptions, TerminalCostForm};
+pub use value::{taylor_terminal_cost, ValueFile, ValueTerminalCost};
 
 use thiserror::Error;
 
@@ -32,6 +38,10 @@ pub struct StepRecord {
     pub status: String,
     /// Which fallback produced the input, if the first choice failed.
     pub fallback: Option<String>,
+    /// RL-guided MPC: the terminal region's state at the solution (`binding` when a
+    /// bound of the region is active, `inactive` when imposed but not active); `None`
+    /// without a region.
+    pub terminal_region: Option<String>,
 }
 
 /// A controller's answer.

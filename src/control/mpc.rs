@@ -10,9 +10,15 @@
 //!
 //! 1. `cold_start`: solve again from the held previous input, simulated;
 //! 2. `shifted_plan`: apply the second input of the last successful plan;
-//! 3. `hold_input`: hold the previous input (within the bounds and rate limits).
+//! 3. `guide_input` (RL-guided MPC only): the guide's own input;
+//! 4. `hold_input`: hold the previous input (within the bounds and rate limits).
 //!
 //! The step's record names the path taken, so a season's log shows every fallback.
+//!
+//! A [`Guidance`] (RL-guided MPC, [`RlGuidance`](crate::control::RlGuidance)) turns this
+//! controller into RL-guided MPC: before each solve it sets the terminal cost and region
+//! and writes the starting point; its own input is one more fallback, before the held
+//! input.
 
 use super::{ControlError, Controller, Decision, Observation, StepRecord};
 use crate::model::Plant;
@@ -20,6 +26,30 @@ use crate::nlp::{Nlp, Ocp, OcpError};
 use crate::solve::{Solution, Solver, Start};
 use std::sync::Arc;
 use std::time::Instant;
+
+/// What RL-guided MPC adds to MPC at each step. See the [module documentation](self).
+pub trait Guidance: Send {
+    /// A short name for reports (`rlmpc`, `rlmpc-vfo`, ...).
+    fn name(&self) -> String;
+
+    /// Prepares the problem just set for `observation` (with `forecast` padded to the
+    /// horizon): the terminal cost and region, and the primal starting point `start`.
+    /// `previous` is the last solution when it was computed at the previous step.
+    fn prepare(
+        &mut self,
+        ocp: &mut Ocp,
+        observation: &Observation,
+        forecast: &[f64],
+        previous: Option<&[f64]>,
+        start: &mut [f64],
+    ) -> Result<(), ControlError>;
+
+    /// The guide's own input at this step, for the fallback.
+    fn guide_input(&mut self, observation: &Observation) -> Option<Vec<f64>>;
+
+    /// The terminal region's state at a solution, for the step record.
+    fn region_status(&self, ocp: &Ocp, x: &[f64]) -> Option<String>;
+}
 
 /// The economic MPC controller.
 pub struct Mpc {
@@ -35,6 +65,7 @@ pub struct Mpc {
     start_nu: Vec<f64>,
     /// Iteration cap of the warm-started solve before the cold start takes over.
     pub warm_iteration_limit: Option<usize>,
+    guidance: Option<Box<dyn Guidance>>,
 }
 
 impl Mpc {
@@ -57,7 +88,14 @@ impl Mpc {
             start_lambda: vec![0.0; m],
             start_nu: vec![0.0; n],
             warm_iteration_limit: Some(15),
+            guidance: None,
         })
+    }
+
+    /// MPC with a [`Guidance`]: RL-guided MPC.
+    pub fn with_guidance(mut self, guidance: Box<dyn Guidance>) -> Mpc {
+        self.guidance = Some(guidance);
+        self
     }
 
     pub fn ocp(&self) -> &Ocp {
@@ -113,20 +151,65 @@ impl Mpc {
         Some(solution)
     }
 
+    /// The guided solve: from the guidance's starting point, with the shifted multipliers
+    /// when the previous step's solution exists (capped like the warm start), else cold.
+    fn solve_guided(&mut self, observation: &Observation) -> Result<Solution, ControlError> {
+        let previous = match (&self.last, self.last_age) {
+            (Some(last), 1) => Some(last),
+            _ => None,
+        };
+        let Some(guidance) = self.guidance.as_mut() else {
+            return Err(ControlError::Other("no guidance".into()));
+        };
+        guidance.prepare(
+            &mut self.ocp,
+            observation,
+            &self.forecast,
+            previous.map(|s| s.x.as_slice()),
+            &mut self.start_x,
+        )?;
+        let solution = match previous {
+            Some(last) => {
+                self.ocp
+                    .shift_multipliers(&last.multipliers, &mut self.start_lambda);
+                self.ocp
+                    .shift_bound_multipliers(&last.bound_multipliers, &mut self.start_nu);
+                self.solver.set_iteration_limit(self.warm_iteration_limit);
+                let s = self.solver.solve(
+                    &mut self.ocp,
+                    Start::warm(&self.start_x, &self.start_lambda, &self.start_nu),
+                );
+                self.solver.set_iteration_limit(None);
+                s
+            }
+            None => self.solver.solve(&mut self.ocp, Start::cold(&self.start_x)),
+        };
+        Ok(solution)
+    }
+
     fn solve_cold(&mut self) -> Solution {
         self.ocp.initial_point(&mut self.start_x);
         self.solver.solve(&mut self.ocp, Start::cold(&self.start_x))
     }
 
     /// The fallback inputs when no solve succeeded.
-    fn fallback_input(&self, previous: &[f64]) -> (Vec<f64>, &'static str) {
+    fn fallback_input(&mut self, observation: &Observation) -> (Vec<f64>, &'static str) {
+        let previous = observation.previous_input;
         let planned = self.last.as_ref().and_then(|s| {
             let j = self.last_age;
             (j < self.ocp.horizon()).then(|| self.ocp.input(&s.x, j).to_vec())
         });
+        let mut guided = || {
+            self.guidance
+                .as_mut()
+                .and_then(|g| g.guide_input(observation))
+        };
         let (mut u, path) = match planned {
             Some(u) => (u, "shifted_plan"),
-            None => (previous.to_vec(), "hold_input"),
+            None => match guided() {
+                Some(u) => (u, "guide_input"),
+                None => (previous.to_vec(), "hold_input"),
+            },
         };
         self.ocp.plant().apply_limits(previous, &mut u);
         (u, path)
@@ -135,7 +218,10 @@ impl Mpc {
 
 impl Controller for Mpc {
     fn name(&self) -> String {
-        format!("mpc-{}", self.solver.name())
+        match &self.guidance {
+            Some(g) => format!("{}-{}", g.name(), self.solver.name()),
+            None => format!("mpc-{}", self.solver.name()),
+        }
     }
 
     fn decide(&mut self, observation: &Observation) -> Result<Decision, ControlError> {
@@ -152,7 +238,12 @@ impl Controller for Mpc {
         self.last_age += 1;
         let mut iterations = 0;
         let mut fallback = None;
-        let mut solution = self.solve_warm();
+        let guided = self.guidance.is_some();
+        let mut solution = if guided {
+            Some(self.solve_guided(observation)?)
+        } else {
+            self.solve_warm()
+        };
         let warm_failed = solution.as_ref().is_some_and(|s| !s.status.is_success());
         if let Some(s) = &solution {
             iterations += s.stats.iterations;
@@ -169,13 +260,18 @@ impl Controller for Mpc {
             return Err(ControlError::Other("no solve was attempted".into()));
         };
         let status = solution.status;
+        let mut terminal_region = None;
         let input = if status.is_success() {
             let u = self.ocp.input(&solution.x, 0).to_vec();
+            terminal_region = self
+                .guidance
+                .as_ref()
+                .and_then(|g| g.region_status(&self.ocp, &solution.x));
             self.last = Some(solution);
             self.last_age = 0;
             u
         } else {
-            let (u, path) = self.fallback_input(observation.previous_input);
+            let (u, path) = self.fallback_input(observation);
             fallback = Some(path.to_string());
             u
         };
@@ -186,6 +282,7 @@ impl Controller for Mpc {
                 iterations,
                 status: status.as_str().to_string(),
                 fallback,
+                terminal_region,
             },
         })
     }

@@ -11,6 +11,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 /// The deterministic policy of a [`PolicyFile`] driving a plant.
+#[derive(Debug, Clone)]
 pub struct Policy {
     policy: PolicyFile,
     scale: Vec<f64>,

@@ -5,6 +5,7 @@
 //! reads and writes a small JSON file.
 //!
 //! * [`mlp`]: layers, activations, evaluation, graph expansion, files;
+//! * [`scaled`]: a network between an input box and an affine output map (value functions);
 //! * [`error`]: the error type [`NnError`].
 //!
 //! Architecture invariant: `nn` knows no training framework. Networks trained with burn
@@ -12,6 +13,8 @@
 
 pub mod error;
 pub mod mlp;
+pub mod scaled;
 
 pub use error::NnError;
 pub use mlp::{Activation, Dense, Mlp};
+pub use scaled::ScaledMlp;

@@ -9,6 +9,7 @@
 //! * [`buffer`]: the replay buffer;
 //! * [`sac`]: networks, Adam, the gradient step, the training loop and its checkpoints;
 //! * [`policy`]: the exported deterministic policy;
+//! * [`value_fit`]: the value network regression of RL-guided MPC;
 //! * [`error`]: the error type [`RlError`].
 //!
 //! Architecture invariant: burn stays inside [`sac`]; everything that leaves this room
@@ -20,6 +21,7 @@ pub mod error;
 pub mod normalize;
 pub mod policy;
 pub mod sac;
+pub mod value_fit;
 
 pub use env::{Env, Transition};
 pub use error::RlError;

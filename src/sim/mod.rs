@@ -1,5 +1,7 @@
-//! Simulation: weather sources, the season loop and its metrics.
+//! Simulation: weather sources, the season loop and its metrics, the season optimum, and
+//! the roll-outs behind the value function of RL-guided MPC.
 pub mod metrics;
 pub mod optimum;
 pub mod season;
+pub mod value_data;
 pub mod weather;

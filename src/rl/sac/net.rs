@@ -23,16 +23,24 @@ pub struct Layer {
     pub bias: Vec<f32>,
 }
 
-/// A ReLU perceptron with a linear output layer.
+/// A perceptron with one hidden activation (ReLU for the agent, tanh for the value
+/// network) and a linear output layer.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Net {
     pub layers: Vec<Layer>,
+    #[serde(default = "relu_activation")]
+    pub hidden: Activation,
+}
+
+fn relu_activation() -> Activation {
+    Activation::Relu
 }
 
 /// A network's weights as burn tensors, for one gradient step.
 pub struct NetTensors {
     weights: Vec<Tensor<2>>,
     biases: Vec<Tensor<2>>,
+    hidden: Activation,
 }
 
 impl Net {
@@ -55,7 +63,31 @@ impl Net {
                 }
             })
             .collect();
-        Net { layers }
+        Net {
+            layers,
+            hidden: Activation::Relu,
+        }
+    }
+
+    /// A network with `hidden` activations, Xavier-uniform weights
+    /// (`±√(6/(fan_in + fan_out))`) and zero biases: the value network's initialisation.
+    pub fn init_xavier<R: Rng>(widths: &[usize], hidden: Activation, rng: &mut R) -> Net {
+        let layers = widths
+            .windows(2)
+            .map(|w| {
+                let (inputs, outputs) = (w[0], w[1]);
+                let bound = (6.0 / (inputs + outputs) as f32).sqrt();
+                Layer {
+                    inputs,
+                    outputs,
+                    weight: (0..inputs * outputs)
+                        .map(|_| rng.random_range(-bound..bound))
+                        .collect(),
+                    bias: vec![0.0; outputs],
+                }
+            })
+            .collect();
+        Net { layers, hidden }
     }
 
     pub fn inputs(&self) -> usize {
@@ -115,7 +147,11 @@ impl Net {
                 biases.push(b);
             }
         }
-        NetTensors { weights, biases }
+        NetTensors {
+            weights,
+            biases,
+            hidden: self.hidden,
+        }
     }
 
     /// Forward pass of one input on plain floats (acting in the environment).
@@ -132,7 +168,11 @@ impl Net {
             }
             if l < last {
                 for n in &mut next {
-                    *n = n.max(0.0);
+                    *n = match self.hidden {
+                        Activation::Relu => n.max(0.0),
+                        Activation::Tanh => n.tanh(),
+                        Activation::Identity => *n,
+                    };
                 }
             }
             current = next;
@@ -151,7 +191,7 @@ impl Net {
     }
 
     /// The network as plain `f64` weights for the `nn` room, with the given output
-    /// activation (hidden layers are ReLU).
+    /// activation.
     pub fn to_mlp(&self, output: Activation) -> Result<Mlp, NnError> {
         let layers = self
             .layers
@@ -172,19 +212,23 @@ impl Net {
                 }
             })
             .collect();
-        Mlp::new(layers, Activation::Relu, output)
+        Mlp::new(layers, self.hidden, output)
     }
 }
 
 impl NetTensors {
-    /// `ReLU` hidden layers, linear output.
+    /// Hidden activations, linear output.
     pub fn forward(&self, input: Tensor<2>) -> Tensor<2> {
         let last = self.weights.len() - 1;
         let mut x = input;
         for (l, (w, b)) in self.weights.iter().zip(&self.biases).enumerate() {
             x = x.matmul(w.clone()) + b.clone();
             if l < last {
-                x = relu(x);
+                x = match self.hidden {
+                    Activation::Relu => relu(x),
+                    Activation::Tanh => x.tanh(),
+                    Activation::Identity => x,
+                };
             }
         }
         x

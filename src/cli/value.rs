@@ -1,0 +1,256 @@
+//! `ghm value`: the value network of RL-guided MPC. Rolls a guide out from states
+//! scattered around its own season (in parallel), fits `V(x_i, k)` to the returns with
+//! burn, and writes `value.json` (what `ghm rlmpc --value` loads), the learning curve
+//! (CSV and PNG) and `summary.json` (losses, timings, and the value predicted at the
+//! season start beside the return the guide earned from there).
+
+use crate::cli::guide::{guide_factory, GuideChoice};
+use crate::cli::output::{create_dir, model_hash, write_summary};
+use crate::cli::weather_args::WeatherArgs;
+use crate::cli::{load_model, CliError};
+use crate::control::ValueFile;
+use crate::model::Plant;
+use crate::report::plot::{draw_xy, Line};
+use crate::rl::value_fit::{fit_value, EpochLoss, ValueFitConfig};
+use crate::sim::value_data::{nominal_run, sample_returns, ValueDataConfig};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use serde_json::json;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+#[derive(Debug, Args)]
+pub struct ValueArgs {
+    /// The model file (.ghm).
+    pub file: PathBuf,
+    /// The guide whose returns are learned.
+    #[arg(long, value_enum, default_value_t = GuideChoice::Sac)]
+    pub guide: GuideChoice,
+    /// The SAC agent (a `ghm train` folder or policy file); default: the one shipped for
+    /// the model under models/agents/.
+    #[arg(long, value_name = "DIR")]
+    pub agent: Option<PathBuf>,
+    #[command(flatten)]
+    pub weather: WeatherArgs,
+    /// Roll-outs from perturbed states.
+    #[arg(long, value_name = "N", default_value_t = 1000)]
+    pub trajectories: usize,
+    /// Relative spread σ of the start states around the guide's season.
+    #[arg(long, value_name = "SIGMA", default_value_t = 0.5)]
+    pub spread: f64,
+    /// The state the value function reads (default: the model's first state).
+    #[arg(long, value_name = "NAME")]
+    pub state: Option<String>,
+    /// Training epochs of the value network.
+    #[arg(long, value_name = "N", default_value_t = 200)]
+    pub epochs: usize,
+    /// Seed of the roll-outs and of the fit.
+    #[arg(long, value_name = "S", default_value_t = 4)]
+    pub seed: u64,
+    /// Run folder.
+    #[arg(long, value_name = "DIR", default_value = "runs/value")]
+    pub out: PathBuf,
+}
+
+fn bar(len: u64, template: &str) -> ProgressBar {
+    let bar = ProgressBar::new(len);
+    if !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+        bar.set_draw_target(ProgressDrawTarget::hidden());
+    }
+    bar.set_style(
+        ProgressStyle::with_template(template).unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar
+}
+
+pub fn run(args: &ValueArgs) -> Result<(), CliError> {
+    if !(args.spread >= 0.0 && args.spread < 1.0) {
+        return Err(CliError::Argument("--spread must be in [0, 1)".into()));
+    }
+    if args.trajectories == 0 || args.epochs == 0 {
+        return Err(CliError::Argument(
+            "--trajectories and --epochs must be at least 1".into(),
+        ));
+    }
+    let model = load_model(&args.file)?;
+    let plant = Arc::new(Plant::new(model));
+    let state_index = match &args.state {
+        None => 0,
+        Some(name) => plant
+            .model
+            .states
+            .iter()
+            .position(|s| &s.info.name == name)
+            .ok_or_else(|| CliError::Argument(format!("--state {name}: no such state")))?,
+    };
+    let steps = args.weather.steps(&plant.model)?;
+    let weather = args.weather.load(&plant.model, steps, 0)?;
+    let make_guide = guide_factory(&plant, args.guide, &args.file, args.agent.as_deref())?;
+    create_dir(&args.out)?;
+
+    let started = Instant::now();
+    let mut guide = make_guide();
+    let nominal = nominal_run(&plant, &weather, steps, guide.as_mut())?;
+    let progress = bar(
+        args.trajectories as u64,
+        "roll-outs {bar:30} {pos}/{len} [{elapsed_precise}, eta {eta}]",
+    );
+    let data = sample_returns(
+        &plant,
+        &weather,
+        steps,
+        &nominal,
+        &|| make_guide() as Box<dyn crate::control::Controller>,
+        &ValueDataConfig {
+            trajectories: args.trajectories,
+            spread: args.spread,
+            seed: args.seed,
+            state_index,
+        },
+        &|done| progress.set_position(done as u64),
+    )?;
+    progress.finish_and_clear();
+    let rollout_s = started.elapsed().as_secs_f64();
+    println!(
+        "{} roll-outs ({} dropped: state diverged), {} points in {rollout_s:.1} s on {} threads",
+        data.trajectories,
+        data.dropped,
+        data.returns.len(),
+        rayon::current_num_threads()
+    );
+
+    // The input box of (x_i, k): the paper's (0.002, 0) … (0.6, 1920) for the lettuce
+    // dry weight; in general the data's range with a margin.
+    let xs = data.features.iter().step_by(2);
+    let (lo, hi) = xs.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+        (a.min(*v), b.max(*v))
+    });
+    if !(lo.is_finite() && hi.is_finite()) {
+        return Err(CliError::Argument(
+            "no roll-out survived; nothing to fit".into(),
+        ));
+    }
+    let margin = 0.1 * (hi - lo).max(1e-9);
+    let lower = [lo - margin, 0.0];
+    let upper = [hi + margin, steps as f64];
+    let config = ValueFitConfig {
+        epochs: args.epochs,
+        seed: args.seed,
+        ..ValueFitConfig::default()
+    };
+    let fit_bar = bar(
+        args.epochs as u64,
+        "fit {bar:30} epoch {pos}/{len} {msg} [{elapsed_precise}, eta {eta}]",
+    );
+    let fit_started = Instant::now();
+    let (function, curve) = fit_value(
+        &data.features,
+        2,
+        &data.returns,
+        &lower,
+        &upper,
+        &config,
+        &mut |e: &EpochLoss| {
+            fit_bar.set_position(e.epoch as u64);
+            fit_bar.set_message(format!(
+                "train {:.3e}, validation {:.3e}",
+                e.train, e.validation
+            ));
+        },
+    )
+    .map_err(|e| CliError::Argument(e.to_string()))?;
+    fit_bar.finish_and_clear();
+    let fit_s = fit_started.elapsed().as_secs_f64();
+    let last = curve.last().copied().unwrap_or(EpochLoss {
+        epoch: 0,
+        train: f64::NAN,
+        validation: f64::NAN,
+    });
+    let value = ValueFile {
+        model: plant.model.name.clone(),
+        guide: args.guide.name().to_string(),
+        state_index,
+        state_name: plant.model.states[state_index].info.name.clone(),
+        function,
+        train_loss: last.train,
+        validation_loss: last.validation,
+    };
+    let value_path = args.out.join("value.json");
+    value.save(&value_path).map_err(CliError::Argument)?;
+    write_curve(&args.out, &curve)?;
+    let predicted = value.value(&nominal.states[0], 0);
+    println!(
+        "fit: {} epochs in {fit_s:.1} s; final MSE train {:.3e}, validation {:.3e}",
+        curve.len(),
+        last.train,
+        last.validation
+    );
+    println!(
+        "value at the season start {predicted:+.4}; the guide earned {:+.4} from there",
+        nominal.cumulative_reward
+    );
+    let summary = json!({
+        "command": std::env::args().collect::<Vec<_>>(),
+        "model": args.file.display().to_string(),
+        "model_sha256": model_hash(&plant),
+        "weather": args.weather.describe(&plant.model),
+        "guide": args.guide.name(),
+        "agent": args.agent.as_ref().map(|a| a.display().to_string()),
+        "trajectories": data.trajectories,
+        "dropped": data.dropped,
+        "points": data.returns.len(),
+        "spread": args.spread,
+        "seed": args.seed,
+        "state": value.state_name,
+        "input_box": { "lower": lower, "upper": upper },
+        "fit": config,
+        "train_loss": last.train,
+        "validation_loss": last.validation,
+        "start_value": predicted,
+        "start_return": nominal.cumulative_reward,
+        "rollout_s": rollout_s,
+        "fit_s": fit_s,
+        "threads": rayon::current_num_threads(),
+    });
+    write_summary(&args.out, &summary)?;
+    println!(
+        "wrote {0}/value.json, value_curve.csv, value_curve.png, summary.json",
+        args.out.display()
+    );
+    Ok(())
+}
+
+fn write_curve(dir: &Path, curve: &[EpochLoss]) -> Result<(), CliError> {
+    let path = dir.join("value_curve.csv");
+    let fail = |e: std::io::Error| CliError::Output {
+        path: path.clone(),
+        message: e.to_string(),
+    };
+    let mut out = std::io::BufWriter::new(std::fs::File::create(&path).map_err(fail)?);
+    writeln!(out, "epoch,train_mse,validation_mse").map_err(fail)?;
+    for e in curve {
+        writeln!(out, "{},{},{}", e.epoch, e.train, e.validation).map_err(fail)?;
+    }
+    out.flush().map_err(fail)?;
+    let x: Vec<f64> = curve.iter().map(|e| e.epoch as f64).collect();
+    let log10 = |v: f64| if v > 0.0 { v.log10() } else { f64::NAN };
+    let lines = [
+        Line {
+            label: "train".into(),
+            values: curve.iter().map(|e| log10(e.train)).collect(),
+        },
+        Line {
+            label: "validation".into(),
+            values: curve.iter().map(|e| log10(e.validation)).collect(),
+        },
+    ];
+    let png = dir.join("value_curve.png");
+    draw_xy("value network fit", "epoch", "log10 MSE", &x, &lines, &png).map_err(|e| {
+        CliError::Output {
+            path: png.clone(),
+            message: e.to_string(),
+        }
+    })
+}

@@ -1,0 +1,112 @@
+//! The learned value function of RL-guided MPC as a file and as terminal costs.
+//!
+//! `V(x_i, k)` predicts the return the guide earns from state component `x_i` (the crop
+//! dry weight for the greenhouse) at season step `k` to the end of the season. The NLP
+//! minimises `−V` at the end of the horizon:
+//!
+//! * [`ValueTerminalCost`] (`exact`): `T(x_N) = −V(x_{N,i}, k + N)`, with its exact gradient
+//!   and Hessian from dual numbers through the network;
+//! * [`taylor_terminal_cost`] (`taylor`, the paper's fast version): the first-order
+//!   expansion of `−V` around the guess's terminal state.
+
+use crate::nlp::{LinearTerminalCost, TerminalCost};
+use crate::nn::ScaledMlp;
+use num_dual::second_derivative;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// A fitted value function and what it was fitted on.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ValueFile {
+    /// The model it belongs to.
+    pub model: String,
+    /// The guide whose returns it predicts (`sac` or `expert`).
+    pub guide: String,
+    /// The state component it reads, by index and name.
+    pub state_index: usize,
+    pub state_name: String,
+    /// Inputs `(x_i, k)`, outputs the return-to-go.
+    pub function: ScaledMlp,
+    /// Final mean squared errors of the fit (return units squared).
+    pub train_loss: f64,
+    pub validation_loss: f64,
+}
+
+impl ValueFile {
+    /// `V(x_i, k)`.
+    pub fn value(&self, state: &[f64], step: usize) -> f64 {
+        self.function
+            .evaluate(&[state[self.state_index], step as f64])
+    }
+
+    pub fn save(&self, path: &Path) -> Result<(), String> {
+        let text = serde_json::to_string(self).map_err(|e| e.to_string())?;
+        std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
+    }
+
+    pub fn load(path: &Path) -> Result<ValueFile, String> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+        let file: ValueFile = serde_json::from_str(&text)
+            .map_err(|e| format!("{} is not a value file: {e}", path.display()))?;
+        file.function
+            .validate()
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+        if file.function.net.inputs() != 2 {
+            return Err(format!(
+                "{}: the value network takes {} inputs; (state, step) needs 2",
+                path.display(),
+                file.function.net.inputs()
+            ));
+        }
+        Ok(file)
+    }
+
+    /// `(−V, −∂V/∂x_i, −∂²V/∂x_i²)` at `(x_i, k)`.
+    fn negative_with_derivatives(&self, x_i: f64, step: usize) -> (f64, f64, f64) {
+        let k = step as f64;
+        let (v, dv, d2v) = second_derivative(
+            |x| self.function.evaluate(&[x, num_dual::DualNum::from_re(k)]),
+            x_i,
+        );
+        (-v, -dv, -d2v)
+    }
+}
+
+/// `T(x_N) = −V(x_{N,i}, k_N)` with exact derivatives. See the [module documentation](self).
+#[derive(Debug, Clone)]
+pub struct ValueTerminalCost {
+    pub value: ValueFile,
+}
+
+impl TerminalCost for ValueTerminalCost {
+    fn evaluate(
+        &mut self,
+        state: &[f64],
+        step: usize,
+        gradient: &mut [f64],
+        hessian: &mut [f64],
+    ) -> f64 {
+        let i = self.value.state_index;
+        let nx = state.len();
+        let (t, dt, d2t) = self.value.negative_with_derivatives(state[i], step);
+        gradient.fill(0.0);
+        hessian.fill(0.0);
+        gradient[i] = dt;
+        hessian[i * nx + i] = d2t;
+        t
+    }
+}
+
+/// The first-order expansion of `−V` around the terminal state `anchor` at step `step`.
+pub fn taylor_terminal_cost(value: &ValueFile, anchor: &[f64], step: usize) -> LinearTerminalCost {
+    let i = value.state_index;
+    let (t, dt, _) = value.negative_with_derivatives(anchor[i], step);
+    let mut gradient = vec![0.0; anchor.len()];
+    gradient[i] = dt;
+    LinearTerminalCost {
+        value: t,
+        gradient,
+        anchor: anchor.to_vec(),
+    }
+}

@@ -1,0 +1,78 @@
+//! A network with affine maps on both sides: inputs mapped from a box `[lower, upper]` to
+//! `[−5, 5]` (the value network's normalisation of the paper, spec §12) and the output
+//! mapped back from standardised units, `y = offset + scale · net(z)`.
+
+use crate::graph::Real;
+use crate::nn::{Mlp, NnError};
+use serde::{Deserialize, Serialize};
+
+/// Half-width of the normalised input range.
+pub const INPUT_HALF_RANGE: f64 = 5.0;
+
+/// An [`Mlp`] between an input box and an affine output map. See the [module
+/// documentation](self).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ScaledMlp {
+    pub net: Mlp,
+    pub input_lower: Vec<f64>,
+    pub input_upper: Vec<f64>,
+    pub output_offset: f64,
+    pub output_scale: f64,
+}
+
+impl ScaledMlp {
+    /// Checks that the box fits the network and is not empty.
+    pub fn new(
+        net: Mlp,
+        input_lower: Vec<f64>,
+        input_upper: Vec<f64>,
+        output_offset: f64,
+        output_scale: f64,
+    ) -> Result<ScaledMlp, NnError> {
+        let s = ScaledMlp {
+            net,
+            input_lower,
+            input_upper,
+            output_offset,
+            output_scale,
+        };
+        s.validate()?;
+        Ok(s)
+    }
+
+    /// The checks of [`ScaledMlp::new`], for values read from a file.
+    pub fn validate(&self) -> Result<(), NnError> {
+        let n = self.net.inputs();
+        if self.input_lower.len() != n || self.input_upper.len() != n {
+            return Err(NnError::InputWidth {
+                given: self.input_lower.len().min(self.input_upper.len()),
+                expected: n,
+            });
+        }
+        let box_ok = self
+            .input_lower
+            .iter()
+            .zip(&self.input_upper)
+            .all(|(l, u)| l.is_finite() && u.is_finite() && u > l);
+        if !box_ok || !self.output_offset.is_finite() || !self.output_scale.is_finite() {
+            return Err(NnError::NonFinite { layer: 0 });
+        }
+        Ok(())
+    }
+
+    /// `z = 10 (v − lower)/(upper − lower) − 5` for one raw input.
+    pub fn normalise<T: Real>(&self, raw: &[T]) -> Vec<T> {
+        raw.iter()
+            .zip(self.input_lower.iter().zip(&self.input_upper))
+            .map(|(v, (l, u))| {
+                (*v - *l) * (2.0 * INPUT_HALF_RANGE / (u - l)) - T::from(INPUT_HALF_RANGE)
+            })
+            .collect()
+    }
+
+    /// The first output at the raw input `raw`, over any dual number type.
+    pub fn evaluate<T: Real>(&self, raw: &[T]) -> T {
+        let z = self.normalise(raw);
+        self.net.forward(&z)[0] * self.output_scale + self.output_offset
+    }
+}

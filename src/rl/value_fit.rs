@@ -1,0 +1,215 @@
+//! Fitting a value network to (features → return) data with burn: the regression of
+//! RL-guided MPC's terminal cost (spec §12, reference numbers §4).
+//!
+//! A tanh perceptron with Xavier-uniform weights and zero biases, trained with Adam on the
+//! mean squared error, the learning rate decaying linearly to zero, mini-batches drawn by
+//! shuffling the training part each epoch, and a fixed validation part (a seeded random
+//! split). Targets are standardised for training (mean 0, variance 1) and the network is
+//! returned with the map back to return units, so the losses reported are in squared
+//! return units, comparable with the paper's.
+
+use crate::nn::{Activation, ScaledMlp};
+use crate::rl::sac::adam::Adam;
+use crate::rl::sac::net::{to_vec, Net};
+use crate::rl::RlError;
+use burn::tensor::{Device, Tensor, TensorData};
+use rand::seq::SliceRandom;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+
+/// Regression settings; the defaults are the paper's.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ValueFitConfig {
+    pub hidden: Vec<usize>,
+    pub learning_rate: f64,
+    pub batch_size: usize,
+    pub epochs: usize,
+    /// Fraction of the points held out for validation.
+    pub validation: f64,
+    pub seed: u64,
+}
+
+impl Default for ValueFitConfig {
+    fn default() -> ValueFitConfig {
+        ValueFitConfig {
+            hidden: vec![128, 128],
+            learning_rate: 1e-3,
+            batch_size: 1024,
+            epochs: 200,
+            validation: 0.2,
+            seed: 4,
+        }
+    }
+}
+
+/// One epoch of the learning curve, losses in squared return units.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct EpochLoss {
+    pub epoch: usize,
+    pub train: f64,
+    pub validation: f64,
+}
+
+/// Fits a value network to `features` (row-major, `width` per point, inside the box
+/// `[lower, upper]`) and `targets`. `on_epoch` sees each epoch's losses.
+pub fn fit_value(
+    features: &[f64],
+    width: usize,
+    targets: &[f64],
+    lower: &[f64],
+    upper: &[f64],
+    config: &ValueFitConfig,
+    on_epoch: &mut dyn FnMut(&EpochLoss),
+) -> Result<(ScaledMlp, Vec<EpochLoss>), RlError> {
+    let n = targets.len();
+    if width == 0 || features.len() != n * width {
+        return Err(RlError::BatchShape {
+            len: features.len(),
+            width,
+        });
+    }
+    if n < 10 || config.batch_size == 0 || config.epochs == 0 {
+        return Err(RlError::BadConfig {
+            name: "value data",
+            why: format!(
+                "{n} points, batch {}, {} epochs: need at least 10 points, a batch and an epoch",
+                config.batch_size, config.epochs
+            ),
+        });
+    }
+    let mean = targets.iter().sum::<f64>() / n as f64;
+    let var = targets.iter().map(|t| (t - mean).powi(2)).sum::<f64>() / n as f64;
+    let std = var.sqrt().max(1e-12);
+    // Inputs through the same box map the network will use.
+    let mut widths = vec![width];
+    widths.extend_from_slice(&config.hidden);
+    widths.push(1);
+    let mut rng = ChaCha8Rng::seed_from_u64(config.seed);
+    let mut net = Net::init_xavier(&widths, Activation::Tanh, &mut rng);
+    let placeholder = net
+        .to_mlp(Activation::Identity)
+        .map_err(|e| RlError::Backend(e.to_string()))?;
+    let scaler =
+        ScaledMlp::new(placeholder, lower.to_vec(), upper.to_vec(), mean, std).map_err(|e| {
+            RlError::BadConfig {
+                name: "value input box",
+                why: e.to_string(),
+            }
+        })?;
+    let z: Vec<f32> = features
+        .chunks(width)
+        .flat_map(|row| scaler.normalise(row))
+        .map(|v| v as f32)
+        .collect();
+    let y: Vec<f32> = targets.iter().map(|t| ((t - mean) / std) as f32).collect();
+    let mut order: Vec<usize> = (0..n).collect();
+    order.shuffle(&mut rng);
+    let n_val = ((n as f64 * config.validation).round() as usize).min(n - 1);
+    let (validation, train) = order.split_at(n_val);
+    let mut train = train.to_vec();
+    let device = Device::flex().autodiff();
+    let lengths: Vec<usize> = net.parameters().iter().map(|p| p.len()).collect();
+    let mut adam = Adam::new(&lengths);
+    let batches_per_epoch = train.len().div_ceil(config.batch_size);
+    let total_steps = (batches_per_epoch * config.epochs) as f64;
+    let mut step = 0usize;
+    let mut curve = Vec::with_capacity(config.epochs);
+    let gather = |rows: &[usize]| -> (Tensor<2>, Tensor<2>) {
+        let mut zb = Vec::with_capacity(rows.len() * width);
+        let mut yb = Vec::with_capacity(rows.len());
+        for &r in rows {
+            zb.extend_from_slice(&z[r * width..(r + 1) * width]);
+            yb.push(y[r]);
+        }
+        (
+            Tensor::<2>::from_data(TensorData::new(zb, [rows.len(), width]), &device),
+            Tensor::<2>::from_data(TensorData::new(yb, [rows.len(), 1]), &device),
+        )
+    };
+    for epoch in 1..=config.epochs {
+        train.shuffle(&mut rng);
+        let mut train_sum = 0.0;
+        for rows in train.chunks(config.batch_size) {
+            let lr = (config.learning_rate * (1.0 - step as f64 / total_steps)) as f32;
+            step += 1;
+            let (zb, yb) = gather(rows);
+            let live = net.tensors(&device, true);
+            let loss = (live.forward(zb) - yb).square().mean();
+            train_sum += f64::from(to_vec(loss.clone().detach())?[0]) * rows.len() as f64;
+            let grads = live.gradients(&loss.backward())?;
+            adam.step(lr, net.parameters_mut(), &grads);
+        }
+        let train_loss = train_sum / train.len() as f64 * var;
+        let validation_loss = if validation.is_empty() {
+            f64::NAN
+        } else {
+            let fixed = net.tensors(&device, false);
+            let mut sum = 0.0;
+            for rows in validation.chunks(8192) {
+                let (zb, yb) = gather(rows);
+                let loss = (fixed.forward(zb.detach()) - yb).square().sum();
+                sum += f64::from(to_vec(loss)?[0]);
+            }
+            sum / validation.len() as f64 * var
+        };
+        if !train_loss.is_finite() {
+            return Err(RlError::Backend(format!(
+                "the value fit diverged at epoch {epoch}"
+            )));
+        }
+        let record = EpochLoss {
+            epoch,
+            train: train_loss,
+            validation: validation_loss,
+        };
+        on_epoch(&record);
+        curve.push(record);
+    }
+    let mlp = net
+        .to_mlp(Activation::Identity)
+        .map_err(|e| RlError::Backend(e.to_string()))?;
+    let fitted = ScaledMlp::new(mlp, lower.to_vec(), upper.to_vec(), mean, std)
+        .map_err(|e| RlError::Backend(e.to_string()))?;
+    Ok((fitted, curve))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fits_a_smooth_function_and_maps_back_to_raw_units() {
+        // v(x, k) = 3 + 2 sin(x) − k/10 on x ∈ [0, 3], k ∈ [0, 10].
+        let mut features = Vec::new();
+        let mut targets = Vec::new();
+        for i in 0..40 {
+            for k in 0..11 {
+                let x = 3.0 * i as f64 / 39.0;
+                features.extend([x, k as f64]);
+                targets.push(3.0 + 2.0 * x.sin() - k as f64 / 10.0);
+            }
+        }
+        let config = ValueFitConfig {
+            hidden: vec![32, 32],
+            learning_rate: 1e-2,
+            batch_size: 64,
+            epochs: 150,
+            ..ValueFitConfig::default()
+        };
+        let (net, curve) = fit_value(
+            &features,
+            2,
+            &targets,
+            &[0.0, 0.0],
+            &[3.0, 10.0],
+            &config,
+            &mut |_| {},
+        )
+        .unwrap();
+        let last = curve.last().unwrap();
+        assert!(last.train < 2e-3 && last.validation < 5e-3, "{last:?}");
+        let v = net.evaluate(&[1.0f64, 4.0]);
+        assert!((v - (3.0 + 2.0 * 1.0f64.sin() - 0.4)).abs() < 0.1, "{v}");
+    }
+}

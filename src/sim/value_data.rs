@@ -1,0 +1,199 @@
+//! Training data for RL-guided MPC's value function: returns of a guide from states
+//! scattered around its own season (spec §12, reference numbers §4).
+//!
+//! The nominal trajectory is the guide's season on the nominal plant. Each roll-out picks a
+//! step `k` uniformly from the season, draws a state `x ~ U(xⁿ(k)(1 − σ), xⁿ(k)(1 + σ))`
+//! component-wise around the nominal state (the previous input is the nominal one), and
+//! lets the guide run to the end of the season. Every visited step `j` gives a point
+//! `(x_i(j), j) → Σ_{t ≥ j} r(t)`, the undiscounted return-to-go.
+//!
+//! Roll-outs run in parallel (rayon); each has its own generator seeded from the seed and
+//! its number, so the data do not depend on the number of threads. A roll-out whose state
+//! stops being finite is dropped and counted.
+
+use crate::control::{Controller, Observation};
+use crate::model::{Plant, StepOutcome};
+use crate::sim::season::{run_season, SeasonConfig, SimError, StepLog};
+use crate::sim::weather::Weather;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// The guide's season on the nominal plant.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NominalRun {
+    /// `x(0) … x(steps)`.
+    pub states: Vec<Vec<f64>>,
+    /// `u(0) … u(steps − 1)`.
+    pub inputs: Vec<Vec<f64>>,
+    /// Cumulative reward of the season.
+    pub cumulative_reward: f64,
+}
+
+/// Runs `guide` over the season on the nominal plant.
+pub fn nominal_run(
+    plant: &Plant,
+    weather: &Weather,
+    steps: usize,
+    guide: &mut dyn Controller,
+) -> Result<NominalRun, SimError> {
+    let mut states = Vec::with_capacity(steps + 1);
+    let mut inputs = Vec::with_capacity(steps);
+    let config = SeasonConfig {
+        steps,
+        enforce_limits: true,
+        uncertainty: None,
+    };
+    let result = run_season(plant, weather, guide, &config, &mut |log: &StepLog| {
+        states.push(log.state.clone());
+        inputs.push(log.input.clone());
+    })?;
+    states.push(result.final_state);
+    Ok(NominalRun {
+        states,
+        inputs,
+        cumulative_reward: result.metrics.cumulative_reward,
+    })
+}
+
+/// One roll-out's points: `(x_i, k)` pairs and the returns-to-go; `None` if it diverged.
+type Rollout = Option<(Vec<f64>, Vec<f64>)>;
+
+/// Settings of the value data.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ValueDataConfig {
+    pub trajectories: usize,
+    /// Relative spread σ of the start states around the nominal ones.
+    pub spread: f64,
+    pub seed: u64,
+    /// The state component the value function reads.
+    pub state_index: usize,
+}
+
+/// The points: `features` holds `(x_i(j), j)` pairs, `returns` the returns-to-go.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ValueData {
+    pub features: Vec<f64>,
+    pub returns: Vec<f64>,
+    pub trajectories: usize,
+    pub dropped: usize,
+}
+
+/// Samples the roll-outs in parallel. `make_guide` builds one guide per roll-out;
+/// `progress` is called with the number of roll-outs finished so far.
+pub fn sample_returns(
+    plant: &Plant,
+    weather: &Weather,
+    steps: usize,
+    nominal: &NominalRun,
+    make_guide: &(dyn Fn() -> Box<dyn Controller> + Sync),
+    config: &ValueDataConfig,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<ValueData, SimError> {
+    if nominal.states.len() < steps + 1 || nominal.inputs.len() < steps {
+        return Err(SimError::WeatherTooShort {
+            available: nominal.inputs.len(),
+            needed: steps,
+        });
+    }
+    let finished = AtomicUsize::new(0);
+    let runs: Vec<Result<Rollout, SimError>> = (0..config.trajectories)
+        .into_par_iter()
+        .map(|i| {
+            let mut guide = make_guide();
+            let run = one_rollout(plant, weather, steps, nominal, guide.as_mut(), config, i);
+            progress(finished.fetch_add(1, Ordering::Relaxed) + 1);
+            run
+        })
+        .collect();
+    let mut data = ValueData::default();
+    for run in runs {
+        match run? {
+            Some((features, returns)) => {
+                data.features.extend(features);
+                data.returns.extend(returns);
+                data.trajectories += 1;
+            }
+            None => data.dropped += 1,
+        }
+    }
+    Ok(data)
+}
+
+fn rollout_seed(seed: u64, i: usize) -> u64 {
+    let mut z = seed ^ (i as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// One roll-out; `None` when its state diverged.
+fn one_rollout(
+    plant: &Plant,
+    weather: &Weather,
+    steps: usize,
+    nominal: &NominalRun,
+    guide: &mut dyn Controller,
+    config: &ValueDataConfig,
+    i: usize,
+) -> Result<Rollout, SimError> {
+    let mut rng = ChaCha8Rng::seed_from_u64(rollout_seed(config.seed, i));
+    let k0 = rng.random_range(0..steps);
+    let sigma = config.spread;
+    let mut x: Vec<f64> = nominal.states[k0]
+        .iter()
+        .map(|v| v * rng.random_range(1.0 - sigma..=1.0 + sigma))
+        .collect();
+    let mut u_prev = if k0 == 0 {
+        plant.model.start_input()
+    } else {
+        nominal.inputs[k0 - 1].clone()
+    };
+    let params = plant.model.nominal_params();
+    let mut ws = plant.workspace();
+    let mut out = StepOutcome {
+        next_state: Vec::new(),
+        terms: Vec::new(),
+        next_outputs: Vec::new(),
+    };
+    let mut y = vec![0.0; plant.model.outputs.len()];
+    let mut features = Vec::with_capacity(2 * (steps - k0));
+    let mut rewards = Vec::with_capacity(steps - k0);
+    for k in k0..steps {
+        let d = weather.at(k);
+        plant.outputs_into(&mut ws, &x, &u_prev, d, &params, &mut y);
+        let forecast = weather.horizon(k, weather.len() - k).unwrap_or(&[]);
+        let decision = guide
+            .decide(&Observation {
+                step: k,
+                state: &x,
+                outputs: &y,
+                previous_input: &u_prev,
+                forecast,
+            })
+            .map_err(|source| SimError::Controller { step: k, source })?;
+        let mut u = decision.input;
+        plant.apply_limits(&u_prev, &mut u);
+        plant.step_into(&mut ws, &x, &u, d, &params, &mut out);
+        if out.next_state.iter().any(|v| !v.is_finite()) {
+            return Ok(None);
+        }
+        let penalty: f64 = plant
+            .penalties(&out.next_outputs)
+            .iter()
+            .map(|p| p.value)
+            .sum();
+        features.extend([x[config.state_index], k as f64]);
+        rewards.push(out.economic() - penalty);
+        x.clone_from(&out.next_state);
+        u_prev = u;
+    }
+    let mut to_go = 0.0;
+    let mut returns = vec![0.0; rewards.len()];
+    for (g, r) in returns.iter_mut().zip(&rewards).rev() {
+        to_go += r;
+        *g = to_go;
+    }
+    Ok(Some((features, returns)))
+}
