@@ -200,3 +200,67 @@ fn train_checkpoints_resumes_and_ships_a_policy_that_policy_runs() {
     let _ = std::fs::remove_dir_all(&dir);
     let _ = std::fs::remove_dir_all(&season);
 }
+
+#[test]
+fn value_and_rlmpc_run_end_to_end_with_the_expert_guide() {
+    let value = temp_dir("value");
+    let v = value.to_str().expect("utf-8 temp path");
+    let (ok, out, err) = ghm(&[
+        "value",
+        "models/lettuce.ghm",
+        "--guide",
+        "expert",
+        "--trajectories",
+        "20",
+        "--epochs",
+        "2",
+        "--days",
+        "1",
+        "--out",
+        v,
+    ]);
+    assert!(ok, "{err}");
+    assert!(out.contains("value at the season start"), "{out}");
+    assert!(value.join("value.json").is_file() && value.join("value_curve.png").is_file());
+    let run = temp_dir("rlmpc");
+    let r = run.to_str().expect("utf-8 temp path");
+    let (ok, out, err) = ghm(&[
+        "rlmpc",
+        "models/lettuce.ghm",
+        "--guide",
+        "expert",
+        "--value",
+        v,
+        "--days",
+        "0.5",
+        "--horizon",
+        "1h",
+        "--compare",
+        "--out",
+        r,
+    ]);
+    assert!(ok, "{err}");
+    assert!(
+        out.contains("RL-MPC (expert)") && out.contains("MPC "),
+        "{out}"
+    );
+    let csv = std::fs::read_to_string(run.join("trajectory.csv")).expect("trajectory.csv");
+    assert!(csv
+        .lines()
+        .next()
+        .unwrap_or("")
+        .ends_with(",terminal_region"));
+    assert!(csv.contains(",binding") || csv.contains(",inactive"));
+    assert!(run.join("mpc/summary.json").is_file());
+    let (ok, _, err) = ghm(&[
+        "rlmpc",
+        "models/lettuce.ghm",
+        "--guide",
+        "expert",
+        "--value",
+        "nowhere",
+    ]);
+    assert!(!ok && err.contains("no value network"), "{err}");
+    let _ = std::fs::remove_dir_all(&value);
+    let _ = std::fs::remove_dir_all(&run);
+}

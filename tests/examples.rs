@@ -52,3 +52,11 @@ fn custom_controller_runs_and_mpc_beats_the_rules() {
     let mpc = last_number(&out, "MPC, 3 h");
     assert!(mpc > rules, "MPC {mpc} vs rules {rules}\n{out}");
 }
+
+#[test]
+fn rl_guided_mpc_runs_with_the_shipped_agent() {
+    let out = run_example("rl_guided_mpc");
+    for label in ["agent alone", "MPC", "RL-guided MPC"] {
+        assert!(last_number(&out, label).is_finite(), "{out}");
+    }
+}

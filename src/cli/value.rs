@@ -153,6 +153,15 @@ pub fn run(args: &ValueArgs) -> Result<(), CliError> {
         &upper,
         &config,
         &mut |e: &EpochLoss| {
+            if fit_bar.is_hidden() && e.epoch % 10 == 0 {
+                println!(
+                    "epoch {:>4}: train {:.3e}, validation {:.3e} ({:.0} s)",
+                    e.epoch,
+                    e.train,
+                    e.validation,
+                    fit_started.elapsed().as_secs_f64()
+                );
+            }
             fit_bar.set_position(e.epoch as u64);
             fit_bar.set_message(format!(
                 "train {:.3e}, validation {:.3e}",

@@ -236,9 +236,9 @@ impl Guidance for RlGuidance {
             match self.options.terminal_cost {
                 TerminalCostForm::Exact => {
                     if !self.exact_cost_set {
-                        ocp.set_terminal_cost(Some(Box::new(ValueTerminalCost {
-                            value: value.clone(),
-                        })));
+                        ocp.set_terminal_cost(Some(Box::new(ValueTerminalCost::new(
+                            value.clone(),
+                        ))));
                         self.exact_cost_set = true;
                     }
                 }

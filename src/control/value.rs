@@ -73,10 +73,28 @@ impl ValueFile {
     }
 }
 
+type CostPoint = (f64, usize);
+type CostFigures = (f64, f64, f64);
+
 /// `T(x_N) = −V(x_{N,i}, k_N)` with exact derivatives. See the [module documentation](self).
+///
+/// The NLP asks for the value, gradient and Hessian at the same point several times per
+/// iteration; the last point's figures are kept, so the network runs once per point.
 #[derive(Debug, Clone)]
 pub struct ValueTerminalCost {
-    pub value: ValueFile,
+    value: ValueFile,
+    /// The last point `(x_i, k)` and `(T, ∂T/∂x_i, ∂²T/∂x_i²)` there.
+    last: Option<(CostPoint, CostFigures)>,
+}
+
+impl ValueTerminalCost {
+    pub fn new(value: ValueFile) -> ValueTerminalCost {
+        ValueTerminalCost { value, last: None }
+    }
+
+    pub fn value(&self) -> &ValueFile {
+        &self.value
+    }
 }
 
 impl TerminalCost for ValueTerminalCost {
@@ -89,7 +107,15 @@ impl TerminalCost for ValueTerminalCost {
     ) -> f64 {
         let i = self.value.state_index;
         let nx = state.len();
-        let (t, dt, d2t) = self.value.negative_with_derivatives(state[i], step);
+        let key = (state[i], step);
+        let (t, dt, d2t) = match self.last {
+            Some((k, figures)) if k == key => figures,
+            _ => {
+                let figures = self.value.negative_with_derivatives(state[i], step);
+                self.last = Some((key, figures));
+                figures
+            }
+        };
         gradient.fill(0.0);
         hessian.fill(0.0);
         gradient[i] = dt;

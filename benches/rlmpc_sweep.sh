@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# The results of docs/results.md: the 40-day Venlo season for H = 1..6 h, both model
+# variants, under plain MPC, RL-MPC with the SAC and the expert guide, and RL-MPC-VFO
+# (SAC guide), plus the agent and the expert alone; all with the agents and value networks
+# shipped under models/agents/. Each run writes runs/results/<variant>-<controller>[-<H>h]/
+# summary.json; finished runs are kept, so the script resumes where it stopped. JOBS runs
+# in parallel (default 2). Tabulate with benches/results_table.py. Needs ../shared.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+ghm=${GHM:-target/release/ghm}
+jobs=${JOBS:-2}
+weather="--weather ../shared/data/venlo2014_30min_model_units.csv --start-row 1394"
+horizons=${HORIZONS:-"1 2 3 4 5 6"}
+list=()
+for variant in lettuce-thesis lettuce; do
+  list+=("$variant-agent|policy models/$variant.ghm")
+  list+=("$variant-expert|policy models/$variant.ghm --expert")
+  for h in $horizons; do
+    list+=("$variant-mpc-${h}h|mpc models/$variant.ghm --horizon ${h}h")
+    list+=("$variant-rlmpc-sac-${h}h|rlmpc models/$variant.ghm --horizon ${h}h --guide sac")
+    list+=("$variant-rlmpc-expert-${h}h|rlmpc models/$variant.ghm --horizon ${h}h --guide expert")
+    list+=("$variant-vfo-sac-${h}h|rlmpc models/$variant.ghm --horizon ${h}h --guide sac --variant vfo")
+  done
+done
+run_one() {
+  local name=${1%%|*} args=${1#*|}
+  local out=runs/results/$name
+  [ -f "$out/summary.json" ] && return 0
+  rm -rf "$out.tmp"
+  # shellcheck disable=SC2086
+  if /usr/bin/time -f "%e" -o "/tmp/ghm-wall-$name" "$ghm" $args $weather --out "$out.tmp" > "/tmp/ghm-log-$name" 2>&1; then
+    cp "/tmp/ghm-wall-$name" "$out.tmp/wall_s"
+    rm -rf "$out" && mv "$out.tmp" "$out"
+    echo "done $name"
+  else
+    echo "FAILED $name (log: /tmp/ghm-log-$name)"
+  fi
+}
+export -f run_one
+export ghm weather
+printf '%s\n' "${list[@]}" | xargs -P "$jobs" -I{} bash -c 'run_one "$@"' _ {}
