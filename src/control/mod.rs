@@ -12,7 +12,7 @@ mod value;
 pub use expert::Expert;
 pub use mpc::{Guidance, Mpc};
 pub use policy::Policy;
-pub use rlmpc::{RlGuidance, RlMpcOptions, TerminalCostForm};
+pub use rlmpc::{terminal_region, RlGuidance, RlMpcOptions, TerminalCostForm};
 pub use value::{taylor_terminal_cost, ValueFile, ValueTerminalCost};
 
 use thiserror::Error;

@@ -165,6 +165,14 @@ fn relative_box(values: &[f64], epsilon: f64) -> (Vec<f64>, Vec<f64>) {
 }
 
 /// The terminal region around the guess's terminal state and last input.
+///
+/// ```
+/// // ±5 % around (20, −2, 0): ordered bounds, and a zero component is pinned.
+/// let b = ghm::control::terminal_region(&[20.0, -2.0, 0.0], &[1.0], 0.05);
+/// assert_eq!(b.state_lower, vec![19.0, -2.1, 0.0]);
+/// assert_eq!(b.state_upper, vec![21.0, -1.9, 0.0]);
+/// assert_eq!((b.input_lower[0], b.input_upper[0]), (0.95, 1.05));
+/// ```
 pub fn terminal_region(state: &[f64], input: &[f64], epsilon: f64) -> TerminalBox {
     let (state_lower, state_upper) = relative_box(state, epsilon);
     let (input_lower, input_upper) = relative_box(input, epsilon);

@@ -11,6 +11,16 @@ pub const INPUT_HALF_RANGE: f64 = 5.0;
 
 /// An [`Mlp`] between an input box and an affine output map. See the [module
 /// documentation](self).
+///
+/// ```
+/// use ghm::nn::{Activation, Dense, Mlp, ScaledMlp};
+/// // net(z) = z₀: the output is offset + scale · z₀ with z₀ = 10 (v₀ − 0)/(2 − 0) − 5.
+/// let layer = Dense { inputs: 1, outputs: 1, weight: vec![1.0], bias: vec![0.0] };
+/// let net = Mlp::new(vec![layer], Activation::Tanh, Activation::Identity).unwrap();
+/// let v = ScaledMlp::new(net, vec![0.0], vec![2.0], 3.0, 0.5).unwrap();
+/// assert!((v.evaluate(&[1.0f64]) - 3.0).abs() < 1e-15); // the middle of the box → z = 0
+/// assert!((v.evaluate(&[2.0f64]) - 5.5).abs() < 1e-15); // the top → z = 5
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ScaledMlp {
     pub net: Mlp,

@@ -14,6 +14,19 @@ use std::path::Path;
 const MAGIC: &[u8; 8] = b"GHMRB001";
 
 /// A ring buffer of transitions. See the [module documentation](self).
+///
+/// ```
+/// use ghm::rl::buffer::{Batch, ReplayBuffer};
+/// use ghm::rl::Normalizer;
+/// use rand::SeedableRng;
+///
+/// let mut buffer = ReplayBuffer::new(2, 1, 1000);
+/// buffer.push(&[1.0, 2.0], &[0.5], 0.1, &[1.5, 2.0], false).unwrap();
+/// let mut batch = Batch::default();
+/// let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
+/// buffer.sample(4, &mut rng, &Normalizer::new(2), &mut batch).unwrap();
+/// assert_eq!(batch.observations.len(), 4 * 2);
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct ReplayBuffer {
     observation_width: usize,
