@@ -3,11 +3,11 @@
 //! record of what it did. Fixed and tabulated inputs live here; MPC and learned policies
 //! implement the same trait.
 
-mod expert;
-mod mpc;
-mod policy;
-mod rlmpc;
-mod value;
+pub mod expert;
+pub mod mpc;
+pub mod policy;
+pub mod rlmpc;
+pub mod value;
 
 pub use expert::Expert;
 pub use mpc::{Guidance, Mpc};

@@ -16,7 +16,7 @@
 //!
 //! Curvature: `−V` can make the Lagrangian Hessian indefinite in `x_{N,i}`. The SQP
 //! back-end handles this as it handles any indefinite stage (diagonal shifts, then
-//! eigenvalue clipping per block: see [`solve::sqp`](crate::solve::sqp)); IPOPT applies
+//! eigenvalue clipping per block: see [`Sqp`](crate::solve::Sqp)); IPOPT applies
 //! its own inertia correction.
 
 use crate::control::value::{taylor_terminal_cost, ValueTerminalCost};
