@@ -30,6 +30,23 @@ use std::time::Instant;
 pub const DEFAULT_HUMIDITY_CEILING: f64 = 85.0;
 
 /// The rule-based controller. See the [module documentation](self).
+///
+/// ```
+/// use ghm::control::Expert;
+/// use ghm::model::Plant;
+/// use std::sync::Arc;
+///
+/// let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/lettuce.ghm");
+/// let plant = Arc::new(Plant::new(ghm::lang::load(&file).map_err(|e| e.render()).unwrap()));
+/// let expert = Expert::new(plant.clone()).unwrap();
+/// // A cold night (8 °C, dark): heat, keep the vents shut, only hold the CO₂ floor.
+/// let outputs = [0.004, 450.0, 8.0, 70.0]; // crop, CO₂ ppm, °C, RH %
+/// let weather = [0.0, 7e-4, 2.0, 4e-3]; // radiation, CO₂, temperature, humidity outside
+/// let u = expert.input(&outputs, &[0.0, 0.0, 50.0], &weather);
+/// assert!(u[2] > 50.0 && u[2] <= 65.0); // heating up, by at most its rate limit (15 W/m²)
+/// assert_eq!(u[1], 0.0); // no ventilation
+/// assert!(u[0] > 0.0); // CO₂ below the floor of 550 ppm: dose
+/// ```
 #[derive(Debug, Clone)]
 pub struct Expert {
     plant: Arc<Plant>,

@@ -224,6 +224,19 @@ impl Mlp {
 
     /// Expands the network into `graph` over the nodes `inputs` and returns its output
     /// nodes. Zero weights add no node (the graph folds them away).
+    ///
+    /// ```
+    /// use ghm::graph::Graph;
+    /// use ghm::nn::{Activation, Dense, Mlp};
+    ///
+    /// let layer = Dense { inputs: 2, outputs: 1, weight: vec![0.5, -1.0], bias: vec![0.25] };
+    /// let net = Mlp::new(vec![layer], Activation::Relu, Activation::Tanh).unwrap();
+    /// let mut graph = Graph::new();
+    /// let x = [graph.var(0), graph.var(1)];
+    /// let y = net.to_graph(&mut graph, &x).unwrap();
+    /// let from_graph = graph.eval_f64(&y, &[2.0, 0.5])[0];
+    /// assert!((from_graph - net.forward(&[2.0, 0.5])[0]).abs() < 1e-15);
+    /// ```
     pub fn to_graph(&self, graph: &mut Graph, inputs: &[NodeId]) -> Result<Vec<NodeId>, NnError> {
         if inputs.len() != self.inputs() {
             return Err(NnError::InputWidth {

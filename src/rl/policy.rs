@@ -31,6 +31,29 @@ pub struct PolicyFile {
 impl PolicyFile {
     /// The action for a raw observation, over any dual number type: the observation is
     /// standardised and clipped as in training (the clip's derivative is zero outside).
+    ///
+    /// ```
+    /// use ghm::rl::PolicyFile;
+    /// use num_dual::{first_derivative, DualNum};
+    ///
+    /// let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/agents/lettuce");
+    /// let policy = PolicyFile::load(&dir.join("policy.json")).unwrap();
+    /// // The season's first observation: outputs, previous input, step, weather.
+    /// let s: [f64; 12] = [0.0035, 537.26, 15.0, 62.644, 0.0, 0.0, 50.0, 0.0, 0.0, 8.6333e-4, 5.6, 5.4981e-3];
+    /// let a = policy.action(&s).unwrap();
+    /// assert_eq!(a.len(), 3);
+    /// assert!(a.iter().all(|v| v.abs() <= 1.0));
+    /// // ∂a₃/∂T (heating action against indoor temperature), exactly, through the network.
+    /// let (_, slope): (f64, f64) = first_derivative(
+    ///     |t| {
+    ///         let mut o: Vec<_> = s.iter().map(|v| DualNum::from_re(*v)).collect();
+    ///         o[2] = t;
+    ///         policy.action(&o).unwrap()[2]
+    ///     },
+    ///     15.0f64,
+    /// );
+    /// assert!(slope.is_finite());
+    /// ```
     pub fn action<T: Real>(&self, observation: &[T]) -> Result<Vec<T>, RlError> {
         let width = self.normalizer.width();
         if observation.len() != width {
