@@ -144,6 +144,19 @@ impl StepSink for TrajectoryWriter {
 }
 
 /// Writes `summary.json`.
+/// A progress bar of `len` units with `template`, hidden when stderr is not a terminal
+/// (the commands then print a line per unit of work themselves).
+pub fn progress_bar(len: u64, template: &str) -> ProgressBar {
+    let bar = ProgressBar::new(len);
+    if !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
+    bar.set_style(
+        ProgressStyle::with_template(template).unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar
+}
+
 pub fn write_summary(dir: &Path, summary: &serde_json::Value) -> Result<(), CliError> {
     let path = dir.join("summary.json");
     let text = serde_json::to_string_pretty(summary).map_err(|e| CliError::Output {

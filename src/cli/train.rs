@@ -6,7 +6,7 @@
 //! `learning_curve.png`, `policy.json` (the best evaluated deterministic policy, what
 //! `ghm policy` and RL-guided MPC load) and `summary.json`.
 
-use crate::cli::output::{create_dir, model_hash, write_summary};
+use crate::cli::output::{create_dir, model_hash, progress_bar, write_summary};
 use crate::cli::weather_args::WeatherArgs;
 use crate::cli::{load_model, CliError};
 use crate::model::Plant;
@@ -15,7 +15,6 @@ use crate::rl::sac::{checkpoint, EpisodeRecord, SacConfig, StepProgress, Trainer
 use crate::rl::Env;
 use crate::sim::season::UncertaintyDraw;
 use clap::Args;
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde_json::json;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -151,13 +150,9 @@ fn train(
 ) -> Result<(), CliError> {
     let config = trainer.config().clone();
     let episode_steps = meta["episode_steps"].as_u64().unwrap_or(1);
-    let bar = ProgressBar::new((config.episodes as u64) * episode_steps);
-    if !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
-        bar.set_draw_target(ProgressDrawTarget::hidden());
-    }
-    bar.set_style(
-        ProgressStyle::with_template("{bar:30} {percent:>3}% {msg} [{elapsed_precise}, eta {eta}]")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    let bar = progress_bar(
+        (config.episodes as u64) * episode_steps,
+        "{bar:30} {percent:>3}% {msg} [{elapsed_precise}, eta {eta}]",
     );
     bar.set_position((trainer.episodes_done() as u64) * episode_steps);
     let unit = plant.model.objective_unit();

@@ -5,7 +5,7 @@
 //! season start beside the return the guide earned from there).
 
 use crate::cli::guide::{guide_factory, GuideChoice};
-use crate::cli::output::{create_dir, model_hash, write_summary};
+use crate::cli::output::{create_dir, model_hash, progress_bar as bar, write_summary};
 use crate::cli::weather_args::WeatherArgs;
 use crate::cli::{load_model, CliError};
 use crate::control::ValueFile;
@@ -14,7 +14,6 @@ use crate::report::plot::{draw_xy, Line};
 use crate::rl::value_fit::{fit_value, EpochLoss, ValueFitConfig};
 use crate::sim::value_data::{nominal_run, sample_returns, ValueDataConfig};
 use clap::Args;
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde_json::json;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -52,17 +51,6 @@ pub struct ValueArgs {
     /// Run folder.
     #[arg(long, value_name = "DIR", default_value = "runs/value")]
     pub out: PathBuf,
-}
-
-fn bar(len: u64, template: &str) -> ProgressBar {
-    let bar = ProgressBar::new(len);
-    if !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
-        bar.set_draw_target(ProgressDrawTarget::hidden());
-    }
-    bar.set_style(
-        ProgressStyle::with_template(template).unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    bar
 }
 
 pub fn run(args: &ValueArgs) -> Result<(), CliError> {

@@ -130,12 +130,16 @@ impl Mpc {
         Ok(())
     }
 
-    fn solve_warm(&mut self) -> Option<Solution> {
+    /// The warm solve from the previous step's solution, shifted (its primal point too,
+    /// unless `primal_ready`: a guidance wrote `start_x` already); `None` without one.
+    fn solve_warm(&mut self, primal_ready: bool) -> Option<Solution> {
         let last = self.last.as_ref()?;
         if self.last_age != 1 {
             return None;
         }
-        self.ocp.shift_primal(&last.x, &mut self.start_x);
+        if !primal_ready {
+            self.ocp.shift_primal(&last.x, &mut self.start_x);
+        }
         self.ocp
             .shift_multipliers(&last.multipliers, &mut self.start_lambda);
         self.ocp
@@ -168,20 +172,8 @@ impl Mpc {
             previous.map(|s| s.x.as_slice()),
             &mut self.start_x,
         )?;
-        let solution = match previous {
-            Some(last) => {
-                self.ocp
-                    .shift_multipliers(&last.multipliers, &mut self.start_lambda);
-                self.ocp
-                    .shift_bound_multipliers(&last.bound_multipliers, &mut self.start_nu);
-                self.solver.set_iteration_limit(self.warm_iteration_limit);
-                let s = self.solver.solve(
-                    &mut self.ocp,
-                    Start::warm(&self.start_x, &self.start_lambda, &self.start_nu),
-                );
-                self.solver.set_iteration_limit(None);
-                s
-            }
+        let solution = match self.solve_warm(true) {
+            Some(s) => s,
             None => self.solver.solve(&mut self.ocp, Start::cold(&self.start_x)),
         };
         Ok(solution)
@@ -242,7 +234,7 @@ impl Controller for Mpc {
         let mut solution = if guided {
             Some(self.solve_guided(observation)?)
         } else {
-            self.solve_warm()
+            self.solve_warm(false)
         };
         let warm_failed = solution.as_ref().is_some_and(|s| !s.status.is_success());
         if let Some(s) = &solution {

@@ -52,19 +52,8 @@ impl ScaledMlp {
 
     /// The checks of [`ScaledMlp::new`], for values read from a file.
     pub fn validate(&self) -> Result<(), NnError> {
-        let n = self.net.inputs();
-        if self.input_lower.len() != n || self.input_upper.len() != n {
-            return Err(NnError::InputWidth {
-                given: self.input_lower.len().min(self.input_upper.len()),
-                expected: n,
-            });
-        }
-        let box_ok = self
-            .input_lower
-            .iter()
-            .zip(&self.input_upper)
-            .all(|(l, u)| l.is_finite() && u.is_finite() && u > l);
-        if !box_ok || !self.output_offset.is_finite() || !self.output_scale.is_finite() {
+        check_box(&self.input_lower, &self.input_upper, self.net.inputs())?;
+        if !self.output_offset.is_finite() || !self.output_scale.is_finite() {
             return Err(NnError::NonFinite { layer: 0 });
         }
         Ok(())
@@ -72,12 +61,7 @@ impl ScaledMlp {
 
     /// `z = 10 (v − lower)/(upper − lower) − 5` for one raw input.
     pub fn normalise<T: Real>(&self, raw: &[T]) -> Vec<T> {
-        raw.iter()
-            .zip(self.input_lower.iter().zip(&self.input_upper))
-            .map(|(v, (l, u))| {
-                (*v - *l) * (2.0 * INPUT_HALF_RANGE / (u - l)) - T::from(INPUT_HALF_RANGE)
-            })
-            .collect()
+        normalise_into_box(raw, &self.input_lower, &self.input_upper)
     }
 
     /// The first output at the raw input `raw`, over any dual number type.
@@ -85,4 +69,33 @@ impl ScaledMlp {
         let z = self.normalise(raw);
         self.net.forward(&z)[0] * self.output_scale + self.output_offset
     }
+}
+
+/// `z = 10 (v − lower)/(upper − lower) − 5`, component-wise: the input map of
+/// [`ScaledMlp`], for callers that have the box but no network yet (a fit).
+pub fn normalise_into_box<T: Real>(raw: &[T], lower: &[f64], upper: &[f64]) -> Vec<T> {
+    raw.iter()
+        .zip(lower.iter().zip(upper))
+        .map(|(v, (l, u))| {
+            (*v - *l) * (2.0 * INPUT_HALF_RANGE / (u - l)) - T::from(INPUT_HALF_RANGE)
+        })
+        .collect()
+}
+
+/// Checks an input box for `width` inputs: the right length, finite, `upper > lower`.
+pub fn check_box(lower: &[f64], upper: &[f64], width: usize) -> Result<(), NnError> {
+    if lower.len() != width || upper.len() != width {
+        return Err(NnError::InputWidth {
+            given: lower.len().min(upper.len()),
+            expected: width,
+        });
+    }
+    let box_ok = lower
+        .iter()
+        .zip(upper)
+        .all(|(l, u)| l.is_finite() && u.is_finite() && u > l);
+    if !box_ok {
+        return Err(NnError::NonFinite { layer: 0 });
+    }
+    Ok(())
 }

@@ -8,6 +8,7 @@
 //! returned with the map back to return units, so the losses reported are in squared
 //! return units, comparable with the paper's.
 
+use crate::nn::scaled::{check_box, normalise_into_box};
 use crate::nn::{Activation, ScaledMlp};
 use crate::rl::sac::adam::Adam;
 use crate::rl::sac::net::{to_vec, Net};
@@ -81,25 +82,19 @@ pub fn fit_value(
     let mean = targets.iter().sum::<f64>() / n as f64;
     let var = targets.iter().map(|t| (t - mean).powi(2)).sum::<f64>() / n as f64;
     let std = var.sqrt().max(1e-12);
+    check_box(lower, upper, width).map_err(|e| RlError::BadConfig {
+        name: "value input box",
+        why: e.to_string(),
+    })?;
     // Inputs through the same box map the network will use.
     let mut widths = vec![width];
     widths.extend_from_slice(&config.hidden);
     widths.push(1);
     let mut rng = ChaCha8Rng::seed_from_u64(config.seed);
     let mut net = Net::init_xavier(&widths, Activation::Tanh, &mut rng);
-    let placeholder = net
-        .to_mlp(Activation::Identity)
-        .map_err(|e| RlError::Backend(e.to_string()))?;
-    let scaler =
-        ScaledMlp::new(placeholder, lower.to_vec(), upper.to_vec(), mean, std).map_err(|e| {
-            RlError::BadConfig {
-                name: "value input box",
-                why: e.to_string(),
-            }
-        })?;
     let z: Vec<f32> = features
         .chunks(width)
-        .flat_map(|row| scaler.normalise(row))
+        .flat_map(|row| normalise_into_box(row, lower, upper))
         .map(|v| v as f32)
         .collect();
     let y: Vec<f32> = targets.iter().map(|t| ((t - mean) / std) as f32).collect();

@@ -218,3 +218,12 @@ pub fn run_season(
         final_state: x,
     })
 }
+
+/// A seed for the `index`-th of many independent streams derived from `seed` (a
+/// SplitMix64 finaliser over `seed ^ index · φ`): training episodes, value roll-outs.
+pub fn derived_seed(seed: u64, index: u64) -> u64 {
+    let mut z = seed ^ index.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}

@@ -13,7 +13,7 @@
 
 use crate::control::{Controller, Observation};
 use crate::model::{Plant, StepOutcome};
-use crate::sim::season::{run_season, SeasonConfig, SimError, StepLog};
+use crate::sim::season::{derived_seed, run_season, SeasonConfig, SimError, StepLog};
 use crate::sim::weather::Weather;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -121,13 +121,6 @@ pub fn sample_returns(
     Ok(data)
 }
 
-fn rollout_seed(seed: u64, i: usize) -> u64 {
-    let mut z = seed ^ (i as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
 /// One roll-out; `None` when its state diverged.
 fn one_rollout(
     plant: &Plant,
@@ -138,7 +131,7 @@ fn one_rollout(
     config: &ValueDataConfig,
     i: usize,
 ) -> Result<Rollout, SimError> {
-    let mut rng = ChaCha8Rng::seed_from_u64(rollout_seed(config.seed, i));
+    let mut rng = ChaCha8Rng::seed_from_u64(derived_seed(config.seed, i as u64 + 1));
     let k0 = rng.random_range(0..steps);
     let sigma = config.spread;
     let mut x: Vec<f64> = nominal.states[k0]

@@ -12,7 +12,6 @@
 
 use crate::rl::buffer::ReplayBuffer;
 use crate::rl::sac::agent::Sac;
-use crate::rl::sac::net::Net;
 use crate::rl::sac::trainer::{BestPolicy, EpisodeRecord, SacConfig, Trainer};
 use crate::rl::{Normalizer, RlError};
 use rand::SeedableRng;
@@ -44,15 +43,7 @@ struct State {
     rng_word_pos: String,
     total_steps: u64,
     curve: Vec<EpisodeRecord>,
-    best: Option<BestState>,
-}
-
-#[derive(Serialize, Deserialize)]
-struct BestState {
-    eval_reward: f64,
-    episode: usize,
-    actor: Net,
-    normalizer: Normalizer,
+    best: Option<BestPolicy>,
 }
 
 const FORMAT: u32 = 1;
@@ -83,12 +74,7 @@ pub fn write(trainer: &Trainer, dir: &Path) -> Result<(), RlError> {
         rng_word_pos: trainer.rng.get_word_pos().to_string(),
         total_steps: trainer.total_steps,
         curve: trainer.curve.clone(),
-        best: trainer.best.as_ref().map(|b| BestState {
-            eval_reward: b.eval_reward,
-            episode: b.episode,
-            actor: b.actor.clone(),
-            normalizer: b.normalizer.clone(),
-        }),
+        best: trainer.best.clone(),
     };
     let state_path = partial.join("state.json");
     let text = serde_json::to_string(&state).map_err(|e| fail(&state_path, e))?;
@@ -153,11 +139,6 @@ pub fn read(dir: &Path) -> Result<Checkpoint, RlError> {
         rng,
         total_steps: state.total_steps,
         curve: state.curve,
-        best: state.best.map(|b| BestPolicy {
-            eval_reward: b.eval_reward,
-            episode: b.episode,
-            actor: b.actor,
-            normalizer: b.normalizer,
-        }),
+        best: state.best,
     })
 }

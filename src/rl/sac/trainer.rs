@@ -29,6 +29,7 @@ use crate::rl::sac::agent::{Sac, UpdateStats};
 use crate::rl::sac::checkpoint::{self, Checkpoint};
 use crate::rl::sac::net::Net;
 use crate::rl::{Env, Normalizer, RlError};
+use crate::sim::season::derived_seed;
 use burn::tensor::Device;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -148,7 +149,7 @@ pub struct StepProgress {
 }
 
 /// The best evaluated policy so far.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct BestPolicy {
     pub eval_reward: f64,
     pub episode: usize,
@@ -487,10 +488,7 @@ fn run_deterministic(
     }
 }
 
-/// The environment seed of an episode: a hash of the training seed and the episode number.
+/// The environment seed of an episode: derived from the training seed and the episode number.
 fn episode_seed(seed: u64, episode: usize) -> u64 {
-    let mut z = seed ^ (episode as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
+    derived_seed(seed, episode as u64)
 }
