@@ -194,3 +194,35 @@ fn iteration_limit_caps_sqp_until_lifted() {
     assert!(full.status.is_success(), "{:?}", full.status);
     assert!(full.stats.iterations > 1);
 }
+
+/// A terminal region narrows the bounds of `x_N` and `u_{N−1}` but not their scales: the
+/// SQP's Levenberg–Marquardt term is divided by the squared scale, and a region's width
+/// there would make it large enough to slow Newton's method to a linear rate.
+#[test]
+fn terminal_region_leaves_variable_scales_alone() {
+    use ghm::nlp::TerminalBox;
+    let (mut ocp, x, _) = problem(3);
+    let n = ocp.n_vars();
+    let scales = |ocp: &Ocp| {
+        let mut s = vec![0.0; n];
+        ocp.var_scales(&mut s);
+        s
+    };
+    let free = scales(&ocp);
+    let x_n = ocp.state_at(&x, 3).to_vec();
+    let u_last = ocp.input(&x, 2).to_vec();
+    let region = ghm::control::terminal_region(&x_n, &u_last, 0.05);
+    let region: TerminalBox = region;
+    ocp.set_terminal_box(Some(region));
+    let (mut lower, mut upper) = (vec![0.0; n], vec![0.0; n]);
+    ocp.var_bounds(&mut lower, &mut upper);
+    let x_n_at = ocp.layout().x(3);
+    for (i, v) in x_n.iter().enumerate() {
+        let width = upper[x_n_at + i] - lower[x_n_at + i];
+        assert!(
+            (width - 0.1 * v.abs()).abs() <= 1e-12 * v.abs(),
+            "x_N[{i}]: {width}"
+        );
+    }
+    assert_eq!(scales(&ocp), free);
+}

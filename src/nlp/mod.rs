@@ -42,6 +42,19 @@ impl Pattern {
     }
 }
 
+/// The range `hi − lo` of each variable bounded on both sides (with a positive range),
+/// else 1: the default [`Nlp::var_scales`].
+pub fn ranges_into(lower: &[f64], upper: &[f64], scale: &mut [f64]) {
+    for ((s, lo), hi) in scale.iter_mut().zip(lower).zip(upper) {
+        let range = hi - lo;
+        *s = if range.is_finite() && range > 0.0 {
+            range
+        } else {
+            1.0
+        };
+    }
+}
+
 /// A nonlinear program with exact first and second derivatives.
 ///
 /// Evaluations take `&mut self` so that an implementation may keep its workspaces (and
@@ -55,6 +68,17 @@ pub trait Nlp {
     fn con_bounds(&self, lower: &mut [f64], upper: &mut [f64]);
     /// A starting point when the caller has none.
     fn initial_point(&mut self, x: &mut [f64]);
+
+    /// Typical size of each variable, which a solver's regularisation is scaled by: by
+    /// default the range of a variable bounded on both sides, else 1. A problem whose
+    /// bounds are sometimes much tighter than the variable's natural range (a terminal
+    /// region) overrides this, so that the tight box does not inflate the regularisation.
+    fn var_scales(&self, scale: &mut [f64]) {
+        let n = scale.len();
+        let (mut lower, mut upper) = (vec![0.0; n], vec![0.0; n]);
+        self.var_bounds(&mut lower, &mut upper);
+        ranges_into(&lower, &upper, scale);
+    }
 
     fn objective(&mut self, x: &[f64]) -> f64;
     fn gradient(&mut self, x: &[f64], gradient: &mut [f64]);

@@ -782,16 +782,9 @@ fn check(what: &'static str, given: usize, expected: usize) -> Result<(), OcpErr
     }
 }
 
-impl Nlp for Ocp {
-    fn n_vars(&self) -> usize {
-        self.layout.n_vars()
-    }
-
-    fn n_cons(&self) -> usize {
-        self.layout.n_cons()
-    }
-
-    fn var_bounds(&self, lower: &mut [f64], upper: &mut [f64]) {
+impl Ocp {
+    /// Input boxes, rate limits on the first input and non-negative slacks; states free.
+    fn bounds_without_region(&self, lower: &mut [f64], upper: &mut [f64]) {
         let l = self.layout;
         lower.fill(f64::NEG_INFINITY);
         upper.fill(f64::INFINITY);
@@ -817,6 +810,21 @@ impl Nlp for Ocp {
             lower[i] = lo;
             upper[i] = hi;
         }
+    }
+}
+
+impl Nlp for Ocp {
+    fn n_vars(&self) -> usize {
+        self.layout.n_vars()
+    }
+
+    fn n_cons(&self) -> usize {
+        self.layout.n_cons()
+    }
+
+    fn var_bounds(&self, lower: &mut [f64], upper: &mut [f64]) {
+        self.bounds_without_region(lower, upper);
+        let l = self.layout;
         if let Some(b) = &self.terminal_box {
             let x_n = l.x(l.horizon);
             let u_last = l.u(l.horizon - 1);
@@ -829,6 +837,17 @@ impl Nlp for Ocp {
                     .max(lower[u_last + i]);
             }
         }
+    }
+
+    /// The scales of the bounds without the terminal region: a region a few per cent wide
+    /// would otherwise multiply the solver's Levenberg–Marquardt term on `x_N` and
+    /// `u_{N−1}` by the inverse square of its width (10⁴ at ε = 5 %), and that term, no
+    /// longer negligible beside the curvature, slows Newton's method to a linear rate.
+    fn var_scales(&self, scale: &mut [f64]) {
+        let n = scale.len();
+        let (mut lower, mut upper) = (vec![0.0; n], vec![0.0; n]);
+        self.bounds_without_region(&mut lower, &mut upper);
+        crate::nlp::ranges_into(&lower, &upper, scale);
     }
 
     fn con_bounds(&self, lower: &mut [f64], upper: &mut [f64]) {

@@ -56,7 +56,7 @@ pub(crate) struct Bounds {
     pub x_upper: Vec<f64>,
     pub g_lower: Vec<f64>,
     pub g_upper: Vec<f64>,
-    /// Typical size of each variable: its range where bounded on both sides, else 1.
+    /// Typical size of each variable ([`Nlp::var_scales`]).
     pub scale: Vec<f64>,
 }
 
@@ -68,17 +68,10 @@ impl Bounds {
             x_upper: vec![0.0; n],
             g_lower: vec![0.0; m],
             g_upper: vec![0.0; m],
-            scale: Vec::with_capacity(n),
+            scale: vec![1.0; n],
         };
         nlp.var_bounds(&mut b.x_lower, &mut b.x_upper);
-        for (lo, hi) in b.x_lower.iter().zip(&b.x_upper) {
-            let range = hi - lo;
-            b.scale.push(if range.is_finite() && range > 0.0 {
-                range
-            } else {
-                1.0
-            });
-        }
+        nlp.var_scales(&mut b.scale);
         nlp.con_bounds(&mut b.g_lower, &mut b.g_upper);
         b
     }
