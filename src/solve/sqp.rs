@@ -269,14 +269,26 @@ impl Sqp {
         })
     }
 
-    /// Largest step relative to the range, over variables bounded on both sides.
+    /// Largest step relative to the range, over variables bounded on both sides. A fixed
+    /// variable (equal bounds, such as a terminal-region component pinned at zero) cannot
+    /// move, and the QP's rounding-level step on it must not count as a huge relative step.
     fn scaled_step(&self, bounds: &Bounds, d: &[f64]) -> f64 {
         d.iter()
             .zip(bounds.x_lower.iter().zip(&bounds.x_upper))
-            .filter(|(_, (lo, hi))| (*hi - *lo).is_finite())
-            .fold(0.0, |a, (d, (lo, hi))| {
-                a.max(d.abs() / (hi - lo).max(1e-300))
-            })
+            .map(|(d, (lo, hi))| (d, hi - lo))
+            .filter(|(_, range)| range.is_finite() && *range > 0.0)
+            .fold(0.0, |a, (d, range)| a.max(d.abs() / range))
+    }
+
+    /// Whether the QP step in `work.step` (merit slope `slope`) is negligible: tiny against
+    /// every variable's range, or, from a feasible point, predicting a change of the
+    /// merit below `flat_slope`. The QP is solved to about 1e-8 relative accuracy, so near
+    /// a stationary point its step is noise of that size in a random direction, and its
+    /// predicted change sits at the rounding level of the objective: nothing a line search
+    /// can confirm. Such a step is taken as it is, with the QP's multipliers.
+    fn negligible(&self, bounds: &Bounds, slope: f64, violation: f64, flat_slope: f64) -> bool {
+        self.scaled_step(bounds, &self.work.step) <= 1e-9
+            || (violation <= flat_slope && slope.abs() <= flat_slope)
     }
 
     /// A QP direction at `x` within `radius`: from the exact Hessian when clarabel solves
@@ -287,6 +299,7 @@ impl Sqp {
         bounds: &Bounds,
         radius: f64,
         violation: f64,
+        flat_slope: f64,
         penalty: &mut f64,
     ) -> Result<f64, QpOutcome> {
         let mut result = Err(QpOutcome::Failed);
@@ -321,7 +334,7 @@ impl Sqp {
             let gd: f64 = w.gradient.iter().zip(&w.step).map(|(g, d)| g * d).sum();
             let slope = gd - *penalty * violation;
             // A negligible step means a stationary point: its multipliers are what counts.
-            let negligible = self.scaled_step(bounds, &self.work.step) <= 1e-9;
+            let negligible = self.negligible(bounds, slope, violation, flat_slope);
             if last || slope < 0.0 || negligible {
                 self.work.curvature = curvature;
                 return Ok(slope);
@@ -555,6 +568,8 @@ impl Solver for Sqp {
             }
             let violation = l1_violation(&self.work.g, &bounds);
             let merit = objective + penalty * violation;
+            // Changes of the merit below this are rounding: 1e-12 relative.
+            let flat_slope = 1e-12 * merit.abs().max(1.0);
             // Every iteration first tries the plain QP step.
             let mut radius: f64 = 1.0;
             // Trust-region loop: a rejected full step shrinks the box on the inputs and
@@ -565,7 +580,7 @@ impl Solver for Sqp {
             let mut failure = QpOutcome::Failed;
             let mut have_direction = false;
             for _ in 0..options.trust_region_tries {
-                match self.direction(&x, &bounds, radius, violation, &mut penalty) {
+                match self.direction(&x, &bounds, radius, violation, flat_slope, &mut penalty) {
                     Ok(s) => slope = s,
                     Err(outcome) => {
                         failure = outcome;
@@ -581,7 +596,7 @@ impl Solver for Sqp {
                 let size = self.scaled_step(&bounds, &step);
                 // A negligible step is taken as it is: the point is (nearly) stationary and
                 // only the QP's multipliers are news; rounding would fail the Armijo test.
-                let negligible = size <= 1e-9;
+                let negligible = self.negligible(&bounds, slope, violation, flat_slope);
                 if negligible || sufficient(1.0, full) {
                     accepted = true;
                     break;
@@ -671,7 +686,7 @@ impl Solver for Sqp {
                 continue;
             }
             stalled = false;
-            if options.trace {
+            if trace {
                 eprintln!(
                     "sqp {iteration:3} f {objective:.12e} kkt {:.1e} {:.1e} {:.1e} alpha {alpha:.3} radius {radius:.2e}{}",
                     kkt.stationarity, kkt.primal, kkt.complementarity,
