@@ -1,7 +1,7 @@
 //! `ghm mpc`: a season of economic MPC.
 
 use crate::cli::simulate::{run_season_and_report, SeasonArgs};
-use crate::cli::weather_args::WeatherArgs;
+use crate::cli::weather_args::{UncertaintyArgs, WeatherArgs};
 use crate::cli::{load_model, CliError};
 use crate::control::Mpc;
 use crate::model::Plant;
@@ -32,12 +32,8 @@ pub struct MpcArgs {
     pub solver: SolverChoice,
     #[command(flatten)]
     pub weather: WeatherArgs,
-    /// Parametric uncertainty δ of the plant (the controller predicts with nominal values).
-    #[arg(long, value_name = "DELTA", default_value_t = 0.0)]
-    pub uncertainty: f64,
-    /// Seed of the parameter draws.
-    #[arg(long, value_name = "S", default_value_t = 4)]
-    pub seed: u64,
+    #[command(flatten)]
+    pub plant: UncertaintyArgs,
     /// Run folder for trajectory.csv, summary.json and trajectory.png.
     #[arg(long, value_name = "DIR", default_value = "runs/mpc")]
     pub out: PathBuf,
@@ -98,8 +94,7 @@ pub fn run(args: &MpcArgs) -> Result<(), CliError> {
     let season = SeasonArgs {
         file: &args.file,
         weather: &args.weather,
-        uncertainty: args.uncertainty,
-        seed: args.seed,
+        uncertainty: &args.plant,
         out: &args.out,
         enforce_limits: true,
         forecast: horizon,

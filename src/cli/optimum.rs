@@ -3,7 +3,7 @@
 
 use crate::cli::mpc::{make_solver, parse_horizon, SolverChoice};
 use crate::cli::simulate::{run_season_and_report, SeasonArgs};
-use crate::cli::weather_args::WeatherArgs;
+use crate::cli::weather_args::{UncertaintyArgs, WeatherArgs};
 use crate::cli::{load_model, CliError};
 use crate::control::{InputTable, Mpc};
 use crate::model::Plant;
@@ -99,8 +99,7 @@ pub fn run(args: &OptimumArgs) -> Result<(), CliError> {
     let season = SeasonArgs {
         file: &args.file,
         weather: &args.weather,
-        uncertainty: 0.0,
-        seed: 0,
+        uncertainty: &UncertaintyArgs::NOMINAL,
         out: &args.out,
         enforce_limits: true,
         forecast: 0,

@@ -4,7 +4,7 @@
 
 use crate::cli::guide::resolve_policy;
 use crate::cli::simulate::{run_season_and_report, SeasonArgs};
-use crate::cli::weather_args::WeatherArgs;
+use crate::cli::weather_args::{UncertaintyArgs, WeatherArgs};
 use crate::cli::{load_model, CliError};
 use crate::control::{Controller, Expert, Policy};
 use crate::model::Plant;
@@ -27,12 +27,8 @@ pub struct PolicyArgs {
     pub expert: bool,
     #[command(flatten)]
     pub weather: WeatherArgs,
-    /// Parametric uncertainty δ of the plant (0 = nominal).
-    #[arg(long, value_name = "DELTA", default_value_t = 0.0)]
-    pub uncertainty: f64,
-    /// Seed of the parameter draws.
-    #[arg(long, value_name = "S", default_value_t = 4)]
-    pub seed: u64,
+    #[command(flatten)]
+    pub plant: UncertaintyArgs,
     /// Run folder for trajectory.csv, summary.json and trajectory.png.
     #[arg(long, value_name = "DIR", default_value = "runs/policy")]
     pub out: PathBuf,
@@ -78,8 +74,7 @@ pub fn run(args: &PolicyArgs) -> Result<(), CliError> {
     let season = SeasonArgs {
         file: &args.file,
         weather: &args.weather,
-        uncertainty: args.uncertainty,
-        seed: args.seed,
+        uncertainty: &args.plant,
         out: &args.out,
         enforce_limits: true,
         forecast: 0,

@@ -7,7 +7,7 @@
 use crate::cli::guide::{guide_factory, shipped_dir, GuideChoice};
 use crate::cli::mpc::{make_solver, parse_horizon, SolverChoice};
 use crate::cli::simulate::{run_season_and_report, SeasonArgs};
-use crate::cli::weather_args::WeatherArgs;
+use crate::cli::weather_args::{UncertaintyArgs, WeatherArgs};
 use crate::cli::{load_model, CliError};
 use crate::control::{Mpc, RlGuidance, RlMpcOptions, TerminalCostForm, ValueFile};
 use crate::model::Plant;
@@ -65,12 +65,8 @@ pub struct RlmpcArgs {
     pub solver: SolverChoice,
     #[command(flatten)]
     pub weather: WeatherArgs,
-    /// Parametric uncertainty δ of the plant (the controller predicts with the nominal model).
-    #[arg(long, value_name = "DELTA", default_value_t = 0.0)]
-    pub uncertainty: f64,
-    /// Seed of the parameter draws.
-    #[arg(long, value_name = "S", default_value_t = 4)]
-    pub seed: u64,
+    #[command(flatten)]
+    pub plant: UncertaintyArgs,
     /// Also run plain MPC at the same horizon (into OUT/mpc) and print both.
     #[arg(long)]
     pub compare: bool,
@@ -148,8 +144,7 @@ pub fn run(args: &RlmpcArgs) -> Result<(), CliError> {
         SeasonArgs {
             file: &args.file,
             weather: &args.weather,
-            uncertainty: args.uncertainty,
-            seed: args.seed,
+            uncertainty: &args.plant,
             out,
             enforce_limits: true,
             forecast: horizon,

@@ -3,11 +3,11 @@
 use crate::cli::output::{
     create_dir, model_hash, plot_trajectory, write_summary, TrajectoryWriter,
 };
-use crate::cli::weather_args::WeatherArgs;
+use crate::cli::weather_args::{UncertaintyArgs, WeatherArgs};
 use crate::cli::{load_model, CliError};
 use crate::control::{ConstantInput, Controller, InputTable};
 use crate::model::Plant;
-use crate::sim::season::{run_season, SeasonConfig, UncertaintyDraw};
+use crate::sim::season::{run_season, SeasonConfig};
 use clap::Args;
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -25,13 +25,8 @@ pub struct SimulateArgs {
     /// Apply the inputs as given, without clipping to bounds and rate limits.
     #[arg(long)]
     pub no_rate_limit: bool,
-    /// Parametric uncertainty δ (relative half-width; the model file says which parameters
-    /// and how often they are redrawn). 0 = the nominal, deterministic plant.
-    #[arg(long, value_name = "DELTA", default_value_t = 0.0)]
-    pub uncertainty: f64,
-    /// Seed of the parameter draws.
-    #[arg(long, value_name = "S", default_value_t = 4)]
-    pub seed: u64,
+    #[command(flatten)]
+    pub plant: UncertaintyArgs,
     /// Run folder for trajectory.csv, summary.json and trajectory.png.
     #[arg(long, value_name = "DIR", default_value = "runs/simulate")]
     pub out: PathBuf,
@@ -87,8 +82,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
     let season = SeasonArgs {
         file: &args.file,
         weather: &args.weather,
-        uncertainty: args.uncertainty,
-        seed: args.seed,
+        uncertainty: &args.plant,
         out: &args.out,
         enforce_limits: !args.no_rate_limit,
         forecast: 0,
@@ -101,8 +95,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
 pub(crate) struct SeasonArgs<'a> {
     pub file: &'a Path,
     pub weather: &'a WeatherArgs,
-    pub uncertainty: f64,
-    pub seed: u64,
+    pub uncertainty: &'a UncertaintyArgs,
     pub out: &'a Path,
     pub enforce_limits: bool,
     /// Steps of weather needed beyond the season (a controller's horizon).
@@ -117,19 +110,14 @@ pub(crate) fn run_season_and_report(
     controller: &mut dyn Controller,
     extra: serde_json::Value,
 ) -> Result<crate::sim::metrics::Metrics, CliError> {
-    if !(args.uncertainty >= 0.0 && args.uncertainty < 1.0) {
-        return Err(CliError::Argument("--uncertainty must be in [0, 1)".into()));
-    }
+    let uncertainty = args.uncertainty.draw()?;
     let steps = args.weather.steps(&plant.model)?;
     let weather = args.weather.load(&plant.model, steps, args.forecast)?;
     create_dir(args.out)?;
     let config = SeasonConfig {
         steps,
         enforce_limits: args.enforce_limits,
-        uncertainty: (args.uncertainty > 0.0).then_some(UncertaintyDraw {
-            delta: args.uncertainty,
-            seed: args.seed,
-        }),
+        uncertainty,
     };
     let mut writer = TrajectoryWriter::create(args.out, plant, steps)?;
     let result = run_season(plant, &weather, controller, &config, &mut writer);
@@ -150,8 +138,8 @@ pub(crate) fn run_season_and_report(
         "model_sha256": model_hash(plant),
         "weather": args.weather.describe(&plant.model),
         "controller": controller.name(),
-        "uncertainty": args.uncertainty,
-        "seed": args.seed,
+        "uncertainty": args.uncertainty.uncertainty,
+        "seed": args.uncertainty.seed,
         "metrics": m,
     });
     if let (Some(map), serde_json::Value::Object(more)) = (summary.as_object_mut(), extra) {

@@ -1,7 +1,9 @@
-//! Weather and season-length options shared by every command that runs a season.
+//! Weather, season-length and plant-uncertainty options shared by every command that runs
+//! a season.
 
 use crate::cli::CliError;
 use crate::lang::Model;
+use crate::sim::season::UncertaintyDraw;
 use crate::sim::weather::{builtin_season, load_csv, load_knmi, Weather, WeatherFrame};
 use clap::Args;
 use std::path::PathBuf;
@@ -96,5 +98,37 @@ impl WeatherArgs {
             (None, Some(p)) => format!("knmi {} from row {}", p.display(), self.start_row),
             (None, None) => format!("built-in season, seed {}", self.weather_seed),
         }
+    }
+}
+
+/// The plant's parametric uncertainty. Controllers keep predicting with the nominal model.
+#[derive(Debug, Clone, Args)]
+pub struct UncertaintyArgs {
+    /// Parametric uncertainty δ of the plant (relative half-width; the model file says which
+    /// parameters and how often they are redrawn). 0 = the nominal, deterministic plant;
+    /// controllers predict with the nominal model either way.
+    #[arg(long, value_name = "DELTA", default_value_t = 0.0)]
+    pub uncertainty: f64,
+    /// Seed of the parameter draws.
+    #[arg(long, value_name = "S", default_value_t = 4)]
+    pub seed: u64,
+}
+
+impl UncertaintyArgs {
+    /// The nominal, deterministic plant.
+    pub const NOMINAL: UncertaintyArgs = UncertaintyArgs {
+        uncertainty: 0.0,
+        seed: 0,
+    };
+
+    /// The parameter draws, `None` for the nominal plant.
+    pub fn draw(&self) -> Result<Option<UncertaintyDraw>, CliError> {
+        if !(self.uncertainty >= 0.0 && self.uncertainty < 1.0) {
+            return Err(CliError::Argument("--uncertainty must be in [0, 1)".into()));
+        }
+        Ok((self.uncertainty > 0.0).then_some(UncertaintyDraw {
+            delta: self.uncertainty,
+            seed: self.seed,
+        }))
     }
 }

@@ -5,7 +5,7 @@
 
 use crate::control::{ControlError, Controller, Decision, Observation, StepRecord};
 use crate::model::Plant;
-use crate::rl::env::{action_scale, input_from_action};
+use crate::rl::env::{action_scale, input_from_action, observation_after_outputs};
 use crate::rl::PolicyFile;
 use std::sync::Arc;
 use std::time::Instant;
@@ -68,9 +68,12 @@ impl Controller for Policy {
         }
         let obs = &mut self.observation;
         obs[..ny].copy_from_slice(o.outputs);
-        obs[ny..ny + nu].copy_from_slice(o.previous_input);
-        obs[ny + nu] = o.step as f64;
-        obs[ny + nu + 1..].copy_from_slice(&o.forecast[..self.nd]);
+        observation_after_outputs(
+            &mut obs[ny..],
+            o.previous_input,
+            o.step,
+            &o.forecast[..self.nd],
+        );
         let action = self
             .policy
             .action(&self.observation[..])

@@ -253,6 +253,19 @@ impl Plant {
         }
     }
 
+    /// The reward of one transition: its economic terms minus the soft-band penalties on
+    /// the outputs after it (`r(k)` of the RL environment, the step of every season's
+    /// cumulative reward).
+    pub fn step_reward(&self, out: &StepOutcome) -> f64 {
+        let penalty: f64 = self
+            .model
+            .soft
+            .iter()
+            .map(|b| band_penalty(b, out.next_outputs[b.output]))
+            .sum();
+        out.economic() - penalty
+    }
+
     /// Penalties of the soft bands on the outputs `y` (scoring bounds).
     pub fn penalties(&self, y: &[f64]) -> Vec<StagePenalty> {
         self.model

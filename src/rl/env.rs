@@ -27,7 +27,7 @@
 //! plant's tape workspace) is kept in the environment.
 
 use crate::lang::model::Redraw;
-use crate::model::{band_penalty, Plant, StepOutcome, StepWorkspace};
+use crate::model::{Plant, StepOutcome, StepWorkspace};
 use crate::rl::RlError;
 use crate::sim::season::{draw_params_into, UncertaintyDraw};
 use crate::sim::weather::Weather;
@@ -254,14 +254,7 @@ impl Env {
             });
         }
         let economic = self.out.economic();
-        let penalty: f64 = self
-            .plant
-            .model
-            .soft
-            .iter()
-            .map(|b| band_penalty(b, self.out.next_outputs[b.output]))
-            .sum();
-        let reward = economic - penalty;
+        let reward = self.plant.step_reward(&self.out);
         self.state.copy_from_slice(&self.out.next_state);
         self.previous_input.copy_from_slice(&self.input);
         self.k += 1;
@@ -286,7 +279,6 @@ impl Env {
 
     /// Fills the observation buffer for the current `k`, state, previous input and parameters.
     fn observe(&mut self) {
-        let nu = self.plant.layout.nu;
         let ny = self.plant.model.outputs.len();
         let row = self.k.min(self.weather.len().saturating_sub(1));
         let d = self.weather.at(row);
@@ -299,9 +291,7 @@ impl Env {
             &self.params,
             y,
         );
-        rest[..nu].copy_from_slice(&self.previous_input);
-        rest[nu] = self.k as f64;
-        rest[nu + 1..].copy_from_slice(d);
+        observation_after_outputs(rest, &self.previous_input, self.k, d);
     }
 
     fn delta(&self) -> f64 {
@@ -386,6 +376,17 @@ impl Env {
     pub fn uncertainty(&self) -> Option<UncertaintyDraw> {
         self.uncertainty
     }
+}
+
+/// Writes what follows the outputs in an observation `[y, u_prev, k, d]`: the previous
+/// input, the step index and the current weather (`rest` has room for exactly these). The
+/// environment and [`crate::control::Policy`] share it, so a policy sees in closed loop what
+/// it saw in training.
+pub fn observation_after_outputs(rest: &mut [f64], previous_input: &[f64], step: usize, d: &[f64]) {
+    let nu = previous_input.len();
+    rest[..nu].copy_from_slice(previous_input);
+    rest[nu] = step as f64;
+    rest[nu + 1..].copy_from_slice(d);
 }
 
 /// Each input's action scale `δu`: its rate limit, or its range `upper − lower` when it has

@@ -252,6 +252,23 @@ impl Normalizer {
         Ok(())
     }
 
+    /// [`Normalizer::normalize`] into `f32` (the precision of the networks), with `scratch`
+    /// as the `f64` buffer.
+    ///
+    /// Errors: [`RlError::ObservationWidth`].
+    pub fn normalize_f32(
+        &self,
+        obs: &[f64],
+        scratch: &mut [f64],
+        out: &mut [f32],
+    ) -> Result<(), RlError> {
+        self.normalize(obs, scratch)?;
+        for (o, s) in out.iter_mut().zip(scratch.iter()) {
+            *o = *s as f32;
+        }
+        Ok(())
+    }
+
     /// [`Normalizer::normalize`] in place.
     ///
     /// Errors: [`RlError::ObservationWidth`].

@@ -172,13 +172,8 @@ fn one_rollout(
         if out.next_state.iter().any(|v| !v.is_finite()) {
             return Ok(None);
         }
-        let penalty: f64 = plant
-            .penalties(&out.next_outputs)
-            .iter()
-            .map(|p| p.value)
-            .sum();
         features.extend([x[config.state_index], k as f64]);
-        rewards.push(out.economic() - penalty);
+        rewards.push(plant.step_reward(&out));
         x.clone_from(&out.next_state);
         u_prev = u;
     }

@@ -94,21 +94,28 @@ impl Sac {
     /// The action for one standardised observation: `tanh(μ)` when `deterministic`, else a
     /// draw `tanh(μ + σ ε)`.
     pub fn act<R: Rng>(&self, observation: &[f32], deterministic: bool, rng: &mut R) -> Vec<f64> {
+        if deterministic {
+            return self.act_deterministic(observation);
+        }
         let mut out = Vec::with_capacity(2 * self.action_width);
         self.actor.forward_one(observation, &mut out);
         let n = self.action_width;
         (0..n)
             .map(|i| {
-                let mean = out[i];
-                let action = if deterministic {
-                    mean
-                } else {
-                    let log_std = out[n + i].clamp(LOG_STD_MIN, LOG_STD_MAX);
-                    let noise = standard_normal(rng);
-                    mean + log_std.exp() * noise
-                };
-                f64::from(action.tanh())
+                let log_std = out[n + i].clamp(LOG_STD_MIN, LOG_STD_MAX);
+                let noise = standard_normal(rng);
+                f64::from((out[i] + log_std.exp() * noise).tanh())
             })
+            .collect()
+    }
+
+    /// The deterministic action `tanh(μ)` (what [`crate::rl::PolicyFile`] exports).
+    pub fn act_deterministic(&self, observation: &[f32]) -> Vec<f64> {
+        let mut out = Vec::with_capacity(2 * self.action_width);
+        self.actor.forward_one(observation, &mut out);
+        out[..self.action_width]
+            .iter()
+            .map(|m| f64::from(m.tanh()))
             .collect()
     }
 

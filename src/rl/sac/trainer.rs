@@ -306,10 +306,8 @@ impl Trainer {
                     .map(|_| self.rng.random_range(-1.0..=1.0))
                     .collect()
             } else {
-                self.normalizer.normalize(&observation, &mut standard)?;
-                for (s, v) in standard_f32.iter_mut().zip(&standard) {
-                    *s = *v as f32;
-                }
+                self.normalizer
+                    .normalize_f32(&observation, &mut standard, &mut standard_f32)?;
                 self.agent.act(&standard_f32, false, &mut self.rng)
             };
             let (next, step_reward, done) = match self.env.step(&action) {
@@ -406,7 +404,7 @@ impl Trainer {
             self.eval_env
                 .reseed(episode_seed(self.config.seed ^ 0x5eed, e + 1));
             let (reward, diverged) =
-                run_deterministic(&mut self.eval_env, &self.agent.actor, &normalizer)?;
+                run_deterministic(&mut self.eval_env, &self.agent, &normalizer)?;
             total += reward;
             any_diverged |= diverged;
         }
@@ -458,22 +456,16 @@ impl Trainer {
 /// reward then runs up to the divergence).
 fn run_deterministic(
     env: &mut Env,
-    actor: &Net,
+    agent: &Sac,
     normalizer: &Normalizer,
 ) -> Result<(f64, bool), RlError> {
     let mut observation = env.reset().to_vec();
     let mut standard = vec![0.0; observation.len()];
     let mut input = vec![0.0f32; observation.len()];
-    let mut out = Vec::new();
-    let aw = env.action_len();
     let mut total = 0.0;
     loop {
-        normalizer.normalize(&observation, &mut standard)?;
-        for (i, s) in input.iter_mut().zip(&standard) {
-            *i = *s as f32;
-        }
-        actor.forward_one(&input, &mut out);
-        let action: Vec<f64> = out[..aw].iter().map(|m| f64::from(m.tanh())).collect();
+        normalizer.normalize_f32(&observation, &mut standard, &mut input)?;
+        let action = agent.act_deterministic(&input);
         match env.step(&action) {
             Ok(t) => {
                 total += t.reward;
