@@ -530,6 +530,37 @@ fn interp(v: &[f64], x: f64) -> f64 {
 /// `period_s` from the first row's HH to the last row's radiation midpoint
 /// (HH − 0.5), so nothing is extrapolated. Rows must be consecutive hours of one
 /// station; empty T/Q/U cells are errors (never filled).
+///
+/// # Examples
+///
+/// Three hours of a station: T = 5, 6, 7 °C and Q = 36, 72, 108 J cm⁻² (100, 200,
+/// 300 W m⁻² over the hours ending at 10, 11 and 12 UT), on a 30-minute grid:
+///
+/// ```
+/// use ghm::sim::weather::{load_knmi, WeatherError, RADIATION, TEMPERATURE};
+///
+/// let dir = std::env::temp_dir().join(format!("ghm-doc-knmi-{}", std::process::id()));
+/// std::fs::create_dir_all(&dir).unwrap();
+/// let path = dir.join("uurgeg.txt");
+/// let header = "# STN,YYYYMMDD,   HH,    T,    Q,    U\n";
+/// let rows = "  380,20140208,   10,   50,   36,   80
+///   380,20140208,   11,   60,   72,   75
+///   380,20140208,   12,   70,  108,   70
+/// ";
+/// std::fs::write(&path, format!("{header}{rows}")).unwrap();
+///
+/// let frame = load_knmi(&path, 1800.0, 400.0).unwrap();
+/// assert_eq!(frame.rows(), 4); // 10:00 to 11:30, the last radiation midpoint
+/// let close = |a: Vec<f64>, b: [f64; 4]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-9);
+/// assert!(close(frame.column(RADIATION).unwrap(), [150.0, 200.0, 250.0, 300.0]));
+/// assert!(close(frame.column(TEMPERATURE).unwrap(), [5.0, 5.5, 6.0, 6.5]));
+///
+/// // A missing observation is an error, never filled in.
+/// std::fs::write(&path, format!("{header}{}", rows.replace("   60,", "     ,"))).unwrap();
+/// let error = load_knmi(&path, 1800.0, 400.0).unwrap_err();
+/// assert!(matches!(error, WeatherError::KnmiMissing { row: 3, .. }), "{error}");
+/// std::fs::remove_dir_all(&dir).unwrap();
+/// ```
 pub fn load_knmi(path: &Path, period_s: f64, co2_ppm: f64) -> Result<WeatherFrame, WeatherError> {
     if !(period_s.is_finite() && period_s > 0.0 && co2_ppm.is_finite() && co2_ppm > 0.0) {
         let m = format!("KNMI period {period_s} s and CO2 {co2_ppm} ppm must be positive");
