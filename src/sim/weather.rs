@@ -408,24 +408,27 @@ fn check_step(path: &Path, row: u64, expected: f64, found: f64) -> Result<(), We
 /// # Examples
 ///
 /// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
 /// use ghm::sim::weather::{load_csv, WeatherError};
 ///
 /// let dir = std::env::temp_dir().join(format!("ghm-doc-load-csv-{}", std::process::id()));
-/// std::fs::create_dir_all(&dir).unwrap();
+/// std::fs::create_dir_all(&dir)?;
 /// let path = dir.join("weather.csv");
-/// std::fs::write(&path, "time_s,temp_out_C,note\n0,4.5,frost\n900,4.75,\n1800,5.0,\n").unwrap();
+/// std::fs::write(&path, "time_s,temp_out_C,note\n0,4.5,frost\n900,4.75,\n1800,5.0,\n")?;
 ///
-/// let frame = load_csv(&path, &["temp_out_C".to_string()], 3600.0).unwrap();
+/// let frame = load_csv(&path, &["temp_out_C".to_string()], 3600.0)?;
 /// assert_eq!(frame.period_s, 900.0); // from `time_s`, not the default
 /// assert_eq!(frame.columns, ["temp_out_C", "time_s"]);
 /// assert_eq!(frame.column("temp_out_C").unwrap(), [4.5, 4.75, 5.0]);
 ///
 /// // A bad cell: the message names the file, the line and the column.
-/// std::fs::write(&path, "time_s,temp_out_C\n0,4.5\n900,warm\n").unwrap();
+/// std::fs::write(&path, "time_s,temp_out_C\n0,4.5\n900,warm\n")?;
 /// let error = load_csv(&path, &["temp_out_C".to_string()], 3600.0).unwrap_err();
 /// assert!(matches!(error, WeatherError::NotNumeric { row: 3, .. }));
 /// assert!(error.to_string().ends_with("line 3, column `temp_out_C`: `warm` is not a number; fix or remove that row"));
-/// std::fs::remove_dir_all(&dir).unwrap();
+/// std::fs::remove_dir_all(&dir)?;
+/// # Ok(())
+/// # }
 /// ```
 pub fn load_csv(
     path: &Path,
@@ -537,29 +540,32 @@ fn interp(v: &[f64], x: f64) -> f64 {
 /// 300 W m⁻² over the hours ending at 10, 11 and 12 UT), on a 30-minute grid:
 ///
 /// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
 /// use ghm::sim::weather::{load_knmi, WeatherError, RADIATION, TEMPERATURE};
 ///
 /// let dir = std::env::temp_dir().join(format!("ghm-doc-knmi-{}", std::process::id()));
-/// std::fs::create_dir_all(&dir).unwrap();
+/// std::fs::create_dir_all(&dir)?;
 /// let path = dir.join("uurgeg.txt");
 /// let header = "# STN,YYYYMMDD,   HH,    T,    Q,    U\n";
 /// let rows = "  380,20140208,   10,   50,   36,   80
 ///   380,20140208,   11,   60,   72,   75
 ///   380,20140208,   12,   70,  108,   70
 /// ";
-/// std::fs::write(&path, format!("{header}{rows}")).unwrap();
+/// std::fs::write(&path, format!("{header}{rows}"))?;
 ///
-/// let frame = load_knmi(&path, 1800.0, 400.0).unwrap();
+/// let frame = load_knmi(&path, 1800.0, 400.0)?;
 /// assert_eq!(frame.rows(), 4); // 10:00 to 11:30, the last radiation midpoint
 /// let close = |a: Vec<f64>, b: [f64; 4]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-9);
 /// assert!(close(frame.column(RADIATION).unwrap(), [150.0, 200.0, 250.0, 300.0]));
 /// assert!(close(frame.column(TEMPERATURE).unwrap(), [5.0, 5.5, 6.0, 6.5]));
 ///
 /// // A missing observation is an error, never filled in.
-/// std::fs::write(&path, format!("{header}{}", rows.replace("   60,", "     ,"))).unwrap();
+/// std::fs::write(&path, format!("{header}{}", rows.replace("   60,", "     ,")))?;
 /// let error = load_knmi(&path, 1800.0, 400.0).unwrap_err();
 /// assert!(matches!(error, WeatherError::KnmiMissing { row: 3, .. }), "{error}");
-/// std::fs::remove_dir_all(&dir).unwrap();
+/// std::fs::remove_dir_all(&dir)?;
+/// # Ok(())
+/// # }
 /// ```
 pub fn load_knmi(path: &Path, period_s: f64, co2_ppm: f64) -> Result<WeatherFrame, WeatherError> {
     if !(period_s.is_finite() && period_s > 0.0 && co2_ppm.is_finite() && co2_ppm > 0.0) {
