@@ -60,6 +60,62 @@ pub enum ControlError {
 }
 
 /// Chooses inputs, one step at a time.
+///
+/// # Examples
+///
+/// A controller of your own for a tank whose level drains at `k · level`: pump in exactly
+/// what drains out, so the level holds. [`run_season`](crate::sim::season::run_season) runs
+/// it like any built-in controller.
+///
+/// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// use ghm::control::{ControlError, Controller, Decision, Observation, StepRecord};
+/// use ghm::model::Plant;
+/// use ghm::sim::season::{run_season, SeasonConfig, StepLog};
+/// use ghm::sim::weather::Weather;
+///
+/// struct HoldLevel {
+///     drain: f64,
+/// }
+///
+/// impl Controller for HoldLevel {
+///     fn name(&self) -> String {
+///         "hold level".into()
+///     }
+///     fn decide(&mut self, o: &Observation) -> Result<Decision, ControlError> {
+///         let level = o.outputs[0];
+///         Ok(Decision { input: vec![self.drain * level], record: StepRecord::default() })
+///     }
+/// }
+///
+/// let text = "\
+/// model tank
+/// sample 60 [s] integrator euler
+/// state level [m] = 1
+/// input inflow [m s^-1] in [0, 0.01] rate 0.002 start 0
+/// param k [s^-1] = 0.001
+/// der level = inflow - k * level
+/// output h [m] = level
+/// reward stored [EUR] = 2 * next(level)
+/// cost pumping [EUR] = 50 * inflow
+/// soft h in [0.5, 1.2] weight 10
+/// ";
+/// let plant = Plant::new(ghm::lang::load_str("tank.ghm", text).map_err(|e| e.render())?);
+/// let weather = Weather::constant(vec![], &[], 10, plant.model.sample_period);
+/// let mut controller = HoldLevel { drain: 0.001 };
+/// let config = SeasonConfig { steps: 10, enforce_limits: true, uncertainty: None };
+/// let mut inputs = Vec::new();
+/// let result = run_season(&plant, &weather, &mut controller, &config, &mut |log: &StepLog| {
+///     inputs.push(log.input[0])
+/// })?;
+/// assert_eq!(inputs, [0.001; 10]);
+/// assert!((result.final_state[0] - 1.0).abs() < 1e-12);
+/// // Each step earns 2 · 1 m − 50 · 0.001, inside the band (no penalty).
+/// assert!((result.metrics.epi - 10.0 * 1.95).abs() < 1e-9);
+/// assert_eq!(result.metrics.total_penalty, 0.0);
+/// # Ok(())
+/// # }
+/// ```
 pub trait Controller {
     /// A short name for reports.
     fn name(&self) -> String;
@@ -67,6 +123,14 @@ pub trait Controller {
 }
 
 /// The same input at every step.
+///
+/// ```
+/// use ghm::control::{ConstantInput, Controller, Observation};
+///
+/// let mut c = ConstantInput(vec![1.0, 2.0]);
+/// let o = Observation { step: 3, state: &[], outputs: &[], previous_input: &[0.0, 0.0], forecast: &[] };
+/// assert_eq!(c.decide(&o).unwrap().input, [1.0, 2.0]);
+/// ```
 #[derive(Debug, Clone)]
 pub struct ConstantInput(pub Vec<f64>);
 
@@ -83,6 +147,16 @@ impl Controller for ConstantInput {
 }
 
 /// Inputs read from a table, one row per step.
+///
+/// ```
+/// use ghm::control::{ControlError, Controller, InputTable, Observation};
+///
+/// let mut table = InputTable(vec![vec![0.5], vec![0.7]]);
+/// let at = |step| Observation { step, state: &[], outputs: &[], previous_input: &[0.0], forecast: &[] };
+/// assert_eq!(table.decide(&at(1)).unwrap().input, [0.7]);
+/// let past_the_end = table.decide(&at(2)).unwrap_err();
+/// assert!(matches!(past_the_end, ControlError::TableTooShort { rows: 2, step: 2 }));
+/// ```
 #[derive(Debug, Clone)]
 pub struct InputTable(pub Vec<Vec<f64>>);
 

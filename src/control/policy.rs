@@ -11,6 +11,52 @@ use std::sync::Arc;
 use std::time::Instant;
 
 /// The deterministic policy of a [`PolicyFile`] driving a plant.
+///
+/// # Examples
+///
+/// The agent shipped for the lettuce greenhouse, for six half-hour steps of the built-in
+/// season: whatever the network says, the inputs keep their bounds and rate limits.
+///
+/// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// use ghm::control::Policy;
+/// use ghm::model::Plant;
+/// use ghm::rl::PolicyFile;
+/// use ghm::sim::season::{run_season, SeasonConfig, StepLog};
+/// use ghm::sim::weather::builtin_season;
+/// use std::sync::Arc;
+///
+/// let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+/// let plant = Arc::new(Plant::new(
+///     ghm::lang::load(&root.join("models/lettuce.ghm")).map_err(|e| e.render())?,
+/// ));
+/// let file = PolicyFile::load(&root.join("models/agents/lettuce/policy.json"))?;
+/// assert_eq!(file.model, plant.model.name);
+/// let mut policy = Policy::new(&plant, file)?;
+///
+/// let columns = plant.model.weather_columns();
+/// let weather = builtin_season(6, plant.model.sample_period, 1).select(&columns, 0, 6)?;
+/// // No clipping by the season loop: the policy's own action map keeps the limits.
+/// let config = SeasonConfig { steps: 6, enforce_limits: false, uncertainty: None };
+/// let mut previous = plant.model.start_input();
+/// run_season(&plant, &weather, &mut policy, &config, &mut |log: &StepLog| {
+///     for (i, decl) in plant.model.inputs.iter().enumerate() {
+///         let u = log.input[i];
+///         assert!(decl.lower <= u && u <= decl.upper);
+///         assert!((u - previous[i]).abs() <= decl.rate.unwrap() + 1e-12);
+///     }
+///     previous = log.input.clone();
+/// })?;
+///
+/// // A policy trained on another model is refused.
+/// let cstr = Arc::new(Plant::new(
+///     ghm::lang::load(&root.join("models/cstr.ghm")).map_err(|e| e.render())?,
+/// ));
+/// let file = PolicyFile::load(&root.join("models/agents/lettuce/policy.json"))?;
+/// assert!(Policy::new(&cstr, file).is_err());
+/// # Ok(())
+/// # }
+/// ```
 #[derive(Debug, Clone)]
 pub struct Policy {
     policy: PolicyFile,

@@ -16,6 +16,37 @@ use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 /// A fitted value function and what it was fitted on.
+///
+/// # Examples
+///
+/// The value function shipped with the lettuce agent: the return the agent still earns
+/// from a crop dry weight at a season step.
+///
+/// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// use ghm::control::ValueFile;
+///
+/// let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/agents/lettuce");
+/// let value = ValueFile::load(&dir.join("value-sac.json"))?;
+/// assert_eq!((value.model.as_str(), value.guide.as_str()), ("lettuce", "sac"));
+/// assert_eq!((value.state_index, value.state_name.as_str()), (0, "dry_weight"));
+///
+/// // V reads only the dry weight (state 0) and the step.
+/// let state = [0.05, 1e-3, 15.0, 0.008];
+/// let mut other = state;
+/// other[2] = 20.0;
+/// assert_eq!(value.value(&state, 100), value.value(&other, 100));
+/// // More season left, more return to go.
+/// assert!(value.value(&state, 100) > value.value(&state, 1800));
+///
+/// // Round trip through a file.
+/// let path = std::env::temp_dir().join(format!("ghm-doc-value-{}.json", std::process::id()));
+/// value.save(&path)?;
+/// assert_eq!(ValueFile::load(&path)?, value);
+/// std::fs::remove_file(&path)?;
+/// # Ok(())
+/// # }
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ValueFile {
     /// The model it belongs to.
@@ -80,6 +111,35 @@ type CostFigures = (f64, f64, f64);
 ///
 /// The NLP asks for the value, gradient and Hessian at the same point several times per
 /// iteration; the last point's figures are kept, so the network runs once per point.
+///
+/// # Examples
+///
+/// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// use ghm::control::{ValueFile, ValueTerminalCost};
+/// use ghm::nlp::TerminalCost;
+///
+/// let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/agents/lettuce");
+/// let value = ValueFile::load(&dir.join("value-sac.json"))?;
+/// let mut cost = ValueTerminalCost::new(value.clone());
+///
+/// let (x, k) = ([0.05, 1e-3, 15.0, 0.008], 500);
+/// let (mut gradient, mut hessian) = ([0.0; 4], [0.0; 16]);
+/// let t = cost.evaluate(&x, k, &mut gradient, &mut hessian);
+/// assert_eq!(t, -value.value(&x, k));
+/// // Only the dry weight (state 0) enters: one gradient entry, one Hessian entry.
+/// assert!(gradient[1..].iter().all(|g| *g == 0.0));
+/// assert!(hessian.iter().enumerate().all(|(i, h)| i == 0 || *h == 0.0));
+/// // The exact gradient against a central difference.
+/// let h = 1e-6;
+/// let (mut up, mut down) = (x, x);
+/// up[0] += h;
+/// down[0] -= h;
+/// let difference = -(value.value(&up, k) - value.value(&down, k)) / (2.0 * h);
+/// assert!((gradient[0] - difference).abs() < 1e-5 * (1.0 + difference.abs()));
+/// # Ok(())
+/// # }
+/// ```
 #[derive(Debug, Clone)]
 pub struct ValueTerminalCost {
     value: ValueFile,
@@ -125,6 +185,35 @@ impl TerminalCost for ValueTerminalCost {
 }
 
 /// The first-order expansion of `−V` around the terminal state `anchor` at step `step`.
+///
+/// # Examples
+///
+/// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// use ghm::control::{taylor_terminal_cost, ValueFile, ValueTerminalCost};
+/// use ghm::nlp::TerminalCost;
+///
+/// let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/agents/lettuce");
+/// let value = ValueFile::load(&dir.join("value-sac.json"))?;
+/// let (anchor, k) = ([0.05, 1e-3, 15.0, 0.008], 500);
+/// let mut linear = taylor_terminal_cost(&value, &anchor, k);
+/// let mut exact = ValueTerminalCost::new(value.clone());
+/// let (mut g, mut h) = ([0.0; 4], [0.0; 16]);
+///
+/// // At the anchor both forms agree, gradient included.
+/// let t_exact = exact.evaluate(&anchor, k, &mut g, &mut h);
+/// let g_exact = g;
+/// assert_eq!(linear.evaluate(&anchor, k, &mut g, &mut h), t_exact);
+/// assert_eq!(g, g_exact);
+/// assert!(h.iter().all(|v| *v == 0.0)); // a linear cost has no curvature
+/// // Away from it the linear form moves along the anchor's slope.
+/// let mut x = anchor;
+/// x[0] += 0.01;
+/// let t = linear.evaluate(&x, k, &mut g, &mut h);
+/// assert!((t - (t_exact + 0.01 * g_exact[0])).abs() < 1e-12);
+/// # Ok(())
+/// # }
+/// ```
 pub fn taylor_terminal_cost(value: &ValueFile, anchor: &[f64], step: usize) -> LinearTerminalCost {
     let i = value.state_index;
     let (t, dt, _) = value.negative_with_derivatives(anchor[i], step);

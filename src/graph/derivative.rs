@@ -165,6 +165,18 @@ pub(crate) fn reverse_sweep<T: Real>(
 
 /// Gradient of `Σ wᵢ outᵢ` with respect to all inputs, by one reverse sweep on floats
 /// (allocates; for tests and one-off use).
+///
+/// ```
+/// use ghm::graph::{gradient_f64, Graph};
+///
+/// // ∇(2·x²y − y) at (3, 4) = (2·2xy, 2·x² − 1) = (48, 17).
+/// let mut g = Graph::new();
+/// let (x, y) = (g.var(0), g.var(1));
+/// let x2 = g.power(x, 2.0);
+/// let x2y = g.mul(x2, y);
+/// let tape = g.compile(&[x2y, y], 2);
+/// assert_eq!(gradient_f64(&tape, &[3.0, 4.0], &[2.0, -1.0]), [48.0, 17.0]);
+/// ```
 pub fn gradient_f64(tape: &Tape, x: &[f64], weights: &[f64]) -> Vec<f64> {
     let mut ws = tape.workspace::<f64>();
     ws.slots[..tape.n_inputs].copy_from_slice(x);

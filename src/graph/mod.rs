@@ -4,6 +4,48 @@
 //!
 //! Architecture invariant: `graph` knows nothing of models, solvers or greenhouses. Its
 //! variables are plain indices; what they mean is the business of the rooms above.
+//!
+//! # Examples
+//!
+//! Two functions of `(x, y)`, `f = x² y + sin x` and `q = x / y`: build them, compile them
+//! into one tape, evaluate it, and take the exact Jacobian and the Hessian of a weighted
+//! sum of the two, against the derivatives by hand.
+//!
+//! ```
+//! use ghm::graph::{Derivatives, Graph, Op};
+//!
+//! let mut g = Graph::new();
+//! let (x, y) = (g.var(0), g.var(1));
+//! let x2 = g.power(x, 2.0);
+//! let x2y = g.mul(x2, y);
+//! let sin_x = g.apply(Op::Sin, &[x]);
+//! let f = g.add(x2y, sin_x);
+//! let q = g.div(x, y);
+//! let tape = g.compile(&[f, q], 2);
+//!
+//! let (a, b) = (0.5_f64, 2.0_f64);
+//! let values = tape.eval_f64(&[a, b]);
+//! assert_eq!(values, [a * a * b + a.sin(), 0.25]);
+//!
+//! // Jacobian with respect to (x, y), one row per output.
+//! let mut d = Derivatives::new(&tape, &[0, 1]);
+//! let jacobian = &d.jacobian(&tape, &[a, b]).jacobian;
+//! let by_hand = [2.0 * a * b + a.cos(), a * a, 1.0 / b, -a / (b * b)];
+//! for (exact, hand) in jacobian.iter().zip(by_hand) {
+//!     assert!((exact - hand).abs() < 1e-15);
+//! }
+//!
+//! // Hessian of 1·f + 3·q: f_xx = 2y − sin x, f_xy = 2x, f_yy = 0;
+//! // q_xx = 0, q_xy = −1/y², q_yy = 2x/y³.
+//! let e = d.hessian(&tape, &[a, b], &[1.0, 3.0]);
+//! let hxy = 2.0 * a - 3.0 / (b * b);
+//! let by_hand = [2.0 * b - a.sin(), hxy, hxy, 3.0 * 2.0 * a / (b * b * b)];
+//! for (exact, hand) in e.hessian.iter().zip(by_hand) {
+//!     assert!((exact - hand).abs() < 1e-15);
+//! }
+//! // ... and the gradient of the same sum comes with it.
+//! assert!((e.gradient[1] - (a * a - 3.0 * a / (b * b))).abs() < 1e-15);
+//! ```
 
 mod derivative;
 mod op;
@@ -41,6 +83,32 @@ pub enum Node {
 }
 
 /// An expression DAG with hash-consing and constant folding.
+///
+/// # Examples
+///
+/// ```
+/// use ghm::graph::{Graph, Op};
+///
+/// let mut g = Graph::new();
+/// let (x, y) = (g.var(0), g.var(1));
+/// // Hash-consing: the same expression is the same node, operands of `+` in any order.
+/// let xy = g.mul(x, y);
+/// assert_eq!(g.mul(y, x), xy);
+/// let n = g.len();
+/// let s = g.add(xy, x);
+/// assert_eq!(g.add(x, xy), s);
+/// assert_eq!(g.len(), n + 1);
+/// // Constant folding and identities: no node for `2 + 3`, `x · 1` or `x − x`.
+/// let (two, three, one) = (g.constant(2.0), g.constant(3.0), g.constant(1.0));
+/// let five = g.add(two, three);
+/// assert_eq!(g.as_constant(five), Some(5.0));
+/// assert_eq!(g.mul(x, one), x);
+/// let zero = g.sub(x, x);
+/// assert_eq!(g.as_constant(zero), Some(0.0));
+/// // Evaluate without compiling (the hot path compiles to a `Tape`).
+/// let e = g.apply(Op::Exp, &[s]);
+/// assert_eq!(g.eval_f64(&[e], &[0.0, 7.0]), [1.0]);
+/// ```
 #[derive(Debug, Clone, Default)]
 pub struct Graph {
     nodes: Vec<Node>,
@@ -224,6 +292,19 @@ impl Graph {
 
     /// Rebuilds `roots` with variable `i` replaced by `replacement[i]` (variables beyond the
     /// slice are kept). Shared sub-expressions stay shared.
+    ///
+    /// ```
+    /// use ghm::graph::Graph;
+    ///
+    /// // f(x, y) = x · y, then f(x + 1, y): the `x` of f becomes `x + 1`.
+    /// let mut g = Graph::new();
+    /// let (x, y) = (g.var(0), g.var(1));
+    /// let f = g.mul(x, y);
+    /// let one = g.constant(1.0);
+    /// let x1 = g.add(x, one);
+    /// let shifted = g.substitute(&[f], &[x1]);
+    /// assert_eq!(g.eval_f64(&shifted, &[2.0, 5.0]), [15.0]);
+    /// ```
     pub fn substitute(&mut self, roots: &[NodeId], replacement: &[NodeId]) -> Vec<NodeId> {
         let mut map: HashMap<NodeId, NodeId> = HashMap::new();
         for n in self.reachable(roots) {

@@ -36,6 +36,22 @@ fn members(b: &Bits) -> Vec<usize> {
 
 impl Sparsity {
     /// The patterns of `tape` with respect to inputs `wrt`.
+    ///
+    /// ```
+    /// use ghm::graph::{Graph, Op, Sparsity};
+    ///
+    /// // (x y + z, exp z): x and y meet in a product, z only in exp.
+    /// let mut g = Graph::new();
+    /// let (x, y, z) = (g.var(0), g.var(1), g.var(2));
+    /// let xy = g.mul(x, y);
+    /// let f = g.add(xy, z);
+    /// let e = g.apply(Op::Exp, &[z]);
+    /// let tape = g.compile(&[f, e], 3);
+    /// let s = Sparsity::of(&tape, &[0, 1, 2]);
+    /// assert_eq!(s.jacobian, vec![vec![0, 1, 2], vec![2]]);
+    /// assert_eq!(s.jacobian_nnz(), 4);
+    /// assert_eq!(s.hessian, vec![(1, 0), (2, 2)]); // ∂²/∂y∂x and ∂²/∂z²
+    /// ```
     pub fn of(tape: &Tape, wrt: &[usize]) -> Sparsity {
         let n = wrt.len();
         let words = n.div_ceil(64).max(1);

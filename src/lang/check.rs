@@ -15,6 +15,34 @@ use std::path::{Path, PathBuf};
 
 /// Why a model could not be loaded: the diagnostics (errors and warnings) and the sources
 /// they point into.
+///
+/// # Examples
+///
+/// A misspelt name is an error with a code, a `file:line:column`, the source line with a
+/// caret under the name, and a hint:
+///
+/// ```
+/// use ghm::lang::diagnostic::Severity;
+///
+/// let text = "\
+/// sample 30 [min]
+/// state temp_air [°C] = 15
+/// input heating [W m^-2] in [0, 150]
+/// der temp_air = (heatng - 6.1 * temp_air) / 3e4
+/// ";
+/// let failure = ghm::lang::load_str("bad.ghm", text).unwrap_err();
+/// assert_eq!(failure.error_count(), 1);
+/// let error = &failure.diagnostics[0];
+/// assert_eq!((error.severity, error.code), (Severity::Error, "E003"));
+/// assert_eq!(failure.sources.location(error.span), "bad.ghm:4:17");
+///
+/// let message = failure.render();
+/// assert!(message.starts_with("error[E003]: unknown name `heatng`"));
+/// assert!(message.contains("┌─ bad.ghm:4:17"));
+/// assert!(message.contains("help: did you mean `heating`?"));
+/// // The unused input is reported too, as a warning.
+/// assert!(message.contains("warning[W001]: input `heating` is never used"));
+/// ```
 #[derive(Debug, Clone)]
 pub struct CheckFailure {
     pub sources: SourceMap,
@@ -27,12 +55,36 @@ impl CheckFailure {
         crate::lang::diagnostic::render(&self.sources, &self.diagnostics)
     }
 
+    /// The number of errors (warnings are not counted).
     pub fn error_count(&self) -> usize {
         self.diagnostics.iter().filter(|d| d.is_error()).count()
     }
 }
 
 /// Loads and checks the model in `path` (with its imports).
+///
+/// A model with errors gives a [`CheckFailure`]; [`CheckFailure::render`] turns it into the
+/// message a user should see. A file that cannot be read is a failure with code `E009`.
+///
+/// # Examples
+///
+/// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models");
+/// let model = ghm::lang::load(&dir.join("cstr.ghm")).map_err(|e| e.render())?;
+/// assert_eq!(model.name, "cstr");
+/// let states: Vec<&str> = model.states.iter().map(|s| s.info.name.as_str()).collect();
+/// assert_eq!(states, ["ca", "temp"]);
+/// assert_eq!(model.sample_period, 6.0); // `sample step_s [s]` with `step_s = 6`
+/// assert_eq!(model.substeps, 20);
+/// assert_eq!(model.inputs[0].rate, Some(3.0));
+///
+/// let missing = ghm::lang::load(&dir.join("no-such-model.ghm")).unwrap_err();
+/// assert_eq!(missing.diagnostics[0].code, "E009");
+/// assert!(missing.render().contains("cannot read model file"));
+/// # Ok(())
+/// # }
+/// ```
 pub fn load(path: &Path) -> Result<Model, CheckFailure> {
     let mut loader = Loader::default();
     let statements = match std::fs::read_to_string(path) {
@@ -54,6 +106,35 @@ pub fn load(path: &Path) -> Result<Model, CheckFailure> {
 
 /// Checks a model given as text (`name` is used in messages; imports are resolved relative
 /// to the current directory).
+///
+/// # Examples
+///
+/// A heated tank (the first model of `docs/language.md`, without weather):
+///
+/// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// let text = r#"
+/// model tank "a heated tank, 10-minute control"
+/// sample 10 [min] integrator rk4 substeps 2
+/// state temp [°C] = 15 "water temperature"
+/// input heat [kW] in [0, 5] rate 0.5 start 0 "heater power"
+/// param loss [kW °C^-1] = 0.1 uncertain "heat loss coefficient"
+/// const cap [kJ °C^-1] = 4186
+/// der temp = (heat - loss * (temp - 10)) / cap
+/// output t_water [°C] = temp
+/// cost heating [EUR] = 0.13 * heat * 600 / 3600
+/// "#;
+/// let model = ghm::lang::load_str("tank.ghm", text).map_err(|e| e.render())?;
+/// assert_eq!(model.name, "tank");
+/// assert_eq!(model.sample_period, 600.0); // seconds
+/// let heat = &model.inputs[0];
+/// assert_eq!((heat.lower, heat.upper, heat.rate, heat.start), (0.0, 5.0, Some(0.5), 0.0));
+/// assert_eq!(model.nominal_params(), [0.1]); // `const cap` is folded in, not a parameter
+/// assert_eq!(model.output_index("t_water"), Some(0));
+/// assert!(model.warnings.is_empty());
+/// # Ok(())
+/// # }
+/// ```
 pub fn load_str(name: &str, text: &str) -> Result<Model, CheckFailure> {
     let mut loader = Loader::default();
     let statements = loader.file(Path::new(name), text.to_string(), None);

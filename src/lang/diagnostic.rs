@@ -72,6 +72,25 @@ impl Diagnostic {
 
 /// Renders diagnostics as plain text (no colour): `error[E001]: ...` followed by
 /// `┌─ file:line:col`, the source line and a caret.
+///
+/// ```
+/// use ghm::lang::diagnostic::{render, Diagnostic};
+/// use ghm::lang::source::{SourceFile, SourceMap, Span};
+///
+/// let mut sources = SourceMap::default();
+/// let text = "sample 60 [s]\nstate x = 1\nder x = -y\n";
+/// let file = sources.add(SourceFile::new("m.ghm".as_ref(), text.into()));
+/// let at = text.find('y').unwrap();
+/// let d = Diagnostic::error("E003", Span::new(file, at, at + 1), "unknown name `y`")
+///     .label("not declared")
+///     .help("declare it, or fix the spelling");
+/// let message = render(&sources, &[d]);
+/// assert!(message.starts_with("error[E003]: unknown name `y`"));
+/// assert!(message.contains("┌─ m.ghm:3:10"));
+/// assert!(message.contains("3 │ der x = -y"));
+/// assert!(message.contains("^ not declared"));
+/// assert!(message.contains("= help: declare it, or fix the spelling"));
+/// ```
 pub fn render(sources: &SourceMap, diagnostics: &[Diagnostic]) -> String {
     let mut files = SimpleFiles::new();
     for f in &sources.files {
@@ -122,6 +141,14 @@ fn edit_distance(a: &str, b: &str) -> usize {
 }
 
 /// The closest of `candidates` to `name`, if it is close enough to be a likely typo.
+///
+/// ```
+/// use ghm::lang::diagnostic::did_you_mean;
+///
+/// let names = ["heating", "ventilation", "co2_supply"];
+/// assert_eq!(did_you_mean("heatng", names.into_iter()).as_deref(), Some("heating"));
+/// assert_eq!(did_you_mean("pump", names.into_iter()), None);
+/// ```
 pub fn did_you_mean<'a>(name: &str, candidates: impl Iterator<Item = &'a str>) -> Option<String> {
     let limit = (name.chars().count() / 3).max(1) + 1;
     candidates

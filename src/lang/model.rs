@@ -116,6 +116,15 @@ impl Default for Uncertainty {
 }
 
 /// Offsets of each variable group in the graph's variable numbering.
+///
+/// ```
+/// use ghm::lang::model::Layout;
+///
+/// // Four states, three inputs, four disturbances, two parameters.
+/// let l = Layout { nx: 4, nu: 3, nd: 4, np: 2 };
+/// assert_eq!((l.x(1), l.u(0), l.d(0), l.p(1), l.x_next(0)), (1, 4, 7, 12, 13));
+/// assert_eq!((l.n_base(), l.n_all()), (13, 17));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Layout {
     pub nx: usize,
@@ -151,6 +160,24 @@ impl Layout {
 }
 
 /// A checked `.ghm` model.
+///
+/// # Examples
+///
+/// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/lettuce.ghm");
+/// let model = ghm::lang::load(&file).map_err(|e| e.render())?;
+/// let l = model.layout();
+/// assert_eq!((l.nx, l.nu, l.nd), (4, 3, 4));
+/// assert_eq!(model.initial_state()[2], 15.0); // indoor air, °C
+/// assert_eq!(model.start_input(), [0.0, 0.0, 50.0]);
+/// // Disturbances are read from the weather columns they name.
+/// assert_eq!(model.weather_columns()[0], "rad_Wm2");
+/// assert_eq!(model.output_index("temp"), Some(2));
+/// assert_eq!(model.sample_period, 1800.0);
+/// # Ok(())
+/// # }
+/// ```
 #[derive(Debug, Clone)]
 pub struct Model {
     pub name: String,

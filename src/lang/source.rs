@@ -49,6 +49,15 @@ impl SourceFile {
     }
 
     /// 1-based line and column (in characters) of a byte offset.
+    ///
+    /// ```
+    /// use ghm::lang::source::SourceFile;
+    ///
+    /// let file = SourceFile::new("m.ghm".as_ref(), "state t [°C] = 1\nder t = -t\n".into());
+    /// assert_eq!(file.line_col(0), (1, 1));
+    /// assert_eq!(file.line_col(file.text.find('=').unwrap()), (1, 14)); // `°` is one column
+    /// assert_eq!(file.line_col(file.text.find("der").unwrap()), (2, 1));
+    /// ```
     pub fn line_col(&self, offset: usize) -> (usize, usize) {
         let line = match self.line_starts.binary_search(&offset) {
             Ok(i) => i,
@@ -77,6 +86,15 @@ impl SourceMap {
     }
 
     /// `file:line:col` of the start of a span.
+    ///
+    /// ```
+    /// use ghm::lang::source::{SourceFile, SourceMap, Span};
+    ///
+    /// let mut sources = SourceMap::default();
+    /// let id = sources.add(SourceFile::new("m.ghm".as_ref(), "sample 60\nstate x = 1\n".into()));
+    /// assert_eq!(sources.location(Span::new(id, 16, 17)), "m.ghm:2:7");
+    /// assert_eq!(sources.location(Span::new(id + 1, 0, 1)), "<unknown>");
+    /// ```
     pub fn location(&self, span: Span) -> String {
         match self.files.get(span.file) {
             Some(f) => {

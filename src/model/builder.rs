@@ -240,6 +240,27 @@ impl ModelBuilder {
     /// in the language); the band is still scored with its own bounds. Returns `false`
     /// (and changes nothing) when there is no band yet or the planning bounds are not
     /// inside the scoring bounds.
+    ///
+    /// ```
+    /// use ghm::model::{ModelBuilder, Plant};
+    ///
+    /// let mut b = ModelBuilder::new("room");
+    /// assert!(!b.plan(18.0, 22.0)); // no band yet
+    /// let t = b.state("temp", 20.0);
+    /// let heat = b.input("heat", 0.0, 1.0, None, 0.0);
+    /// b.der(t, heat);
+    /// let y = b.output("temp", t);
+    /// b.soft(y, 16.0, 24.0, 1.0, 2.0); // scored: 1 per °C below 16, 2 per °C above 24
+    /// assert!(!b.plan(15.0, 22.0)); // not inside the band
+    /// assert!(b.plan(18.0, 22.0)); // planned with a margin
+    /// b.sample(600.0, 1);
+    /// let plant = Plant::new(b.build().unwrap());
+    /// let band = &plant.model.soft[0];
+    /// assert_eq!((band.lower, band.plan_lower, band.plan_upper, band.upper), (16.0, 18.0, 22.0, 24.0));
+    /// // Penalties are scored on the band, not on the plan.
+    /// assert_eq!(plant.penalties(&[23.0])[0].value, 0.0);
+    /// assert_eq!(plant.penalties(&[25.0])[0].value, 2.0);
+    /// ```
     pub fn plan(&mut self, lower: f64, upper: f64) -> bool {
         let Some(band) = self.soft.last_mut() else {
             return false;

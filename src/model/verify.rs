@@ -26,6 +26,29 @@ fn rel_err(a: f64, b: f64, scale: f64) -> f64 {
 }
 
 /// Checks the step's derivatives with respect to `(x, u)` at each base point `(x, u, d, p)`.
+///
+/// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// use ghm::model::{verify::verify_step_derivatives, Plant};
+///
+/// let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/cstr.ghm");
+/// let plant = Plant::new(ghm::lang::load(&file).map_err(|e| e.render())?);
+/// // Two points (x, u, d, p): the initial state with the coolant at 295 K and at 305 K.
+/// let points: Vec<Vec<f64>> = [295.0, 305.0]
+///     .iter()
+///     .map(|&tc| {
+///         let mut z = plant.model.initial_state();
+///         z.push(tc); // the CSTR has no disturbances
+///         z.extend(plant.model.nominal_params());
+///         z
+///     })
+///     .collect();
+/// let report = verify_step_derivatives(&plant, &points);
+/// assert_eq!(report.points, 2);
+/// assert!(report.max() < 1e-5, "{report:?}");
+/// # Ok(())
+/// # }
+/// ```
 pub fn verify_step_derivatives(plant: &Plant, points: &[Vec<f64>]) -> VerifyReport {
     let tape = plant.step_tape();
     let l = plant.layout;

@@ -59,6 +59,63 @@ pub fn ranges_into(lower: &[f64], upper: &[f64], scale: &mut [f64]) {
 ///
 /// Evaluations take `&mut self` so that an implementation may keep its workspaces (and
 /// caches of the last point) without allocating per call.
+///
+/// # Examples
+///
+/// The point of the line `x + y = 1` closest to `(1, 2)`: minimise `(x − 1)² + (y − 2)²`
+/// subject to `x + y = 1`. By hand: `(0, 1)`, with multiplier `λ = 2` (from
+/// `∇f + Jᵀλ = 0`, the convention of every back-end).
+///
+/// ```
+/// use ghm::nlp::{Nlp, Pattern};
+/// use ghm::solve::{Solver, SolveStatus, Sqp, Start};
+///
+/// struct Closest {
+///     jacobian: Pattern,
+///     hessian: Pattern,
+/// }
+///
+/// impl Nlp for Closest {
+///     fn n_vars(&self) -> usize { 2 }
+///     fn n_cons(&self) -> usize { 1 }
+///     fn var_bounds(&self, lower: &mut [f64], upper: &mut [f64]) {
+///         lower.fill(-10.0);
+///         upper.fill(10.0);
+///     }
+///     fn con_bounds(&self, lower: &mut [f64], upper: &mut [f64]) {
+///         (lower[0], upper[0]) = (1.0, 1.0); // an equality
+///     }
+///     fn initial_point(&mut self, x: &mut [f64]) { x.fill(0.0) }
+///     fn objective(&mut self, x: &[f64]) -> f64 {
+///         (x[0] - 1.0).powi(2) + (x[1] - 2.0).powi(2)
+///     }
+///     fn gradient(&mut self, x: &[f64], g: &mut [f64]) {
+///         g[0] = 2.0 * (x[0] - 1.0);
+///         g[1] = 2.0 * (x[1] - 2.0);
+///     }
+///     fn constraints(&mut self, x: &[f64], g: &mut [f64]) { g[0] = x[0] + x[1] }
+///     fn jacobian_pattern(&self) -> &Pattern { &self.jacobian }
+///     fn jacobian_values(&mut self, _: &[f64], values: &mut [f64]) { values.fill(1.0) }
+///     fn hessian_pattern(&self) -> &Pattern { &self.hessian }
+///     fn hessian_values(&mut self, _: &[f64], sigma: f64, _: &[f64], values: &mut [f64]) {
+///         values.fill(2.0 * sigma); // the constraint is linear: no λ term
+///     }
+/// }
+///
+/// let mut jacobian = Pattern::default();
+/// jacobian.push(0, 0);
+/// jacobian.push(0, 1);
+/// let mut hessian = Pattern::default(); // lower triangle: the diagonal here
+/// hessian.push(0, 0);
+/// hessian.push(1, 1);
+/// let mut problem = Closest { jacobian, hessian };
+///
+/// let solution = Sqp::default().solve(&mut problem, Start::cold(&[0.0, 0.0]));
+/// assert_eq!(solution.status, SolveStatus::Optimal);
+/// assert!((solution.x[0] - 0.0).abs() < 1e-6 && (solution.x[1] - 1.0).abs() < 1e-6);
+/// assert!((solution.multipliers[0] - 2.0).abs() < 1e-6);
+/// assert!((solution.stats.objective - 2.0).abs() < 1e-6);
+/// ```
 pub trait Nlp {
     fn n_vars(&self) -> usize;
     fn n_cons(&self) -> usize;

@@ -15,6 +15,21 @@ use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 /// An elementwise activation.
+///
+/// ```
+/// use ghm::nn::Activation;
+/// use num_dual::{first_derivative, DualNum};
+///
+/// assert_eq!(Activation::Relu.apply(-2.0), 0.0);
+/// assert_eq!(Activation::Relu.apply(3.0), 3.0);
+/// assert_eq!(Activation::Identity.apply(-2.0), -2.0);
+/// assert_eq!(Activation::Tanh.apply(0.5), 0.5f64.tanh());
+/// // Over dual numbers: tanh' = 1 − tanh², ReLU' = 0 at zero (the left derivative).
+/// let (_, d) = first_derivative(|x| Activation::Tanh.apply(x), 0.5);
+/// assert!((d - (1.0 - 0.5f64.tanh().powi(2))).abs() < 1e-15);
+/// let (_, d) = first_derivative(|x| Activation::Relu.apply(x), 0.0);
+/// assert_eq!(d, 0.0);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Activation {
@@ -55,6 +70,24 @@ impl Activation {
 
 /// One affine layer: `outputs × inputs` weights (row-major, one row per output) and
 /// `outputs` biases.
+///
+/// ```
+/// use ghm::nn::{Activation, Dense, Mlp};
+///
+/// // Two inputs, three outputs: row o holds the weights into output o.
+/// let layer = Dense {
+///     inputs: 2,
+///     outputs: 3,
+///     weight: vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0],
+///     bias: vec![0.0, 0.5, -1.0],
+/// };
+/// assert_eq!(layer.weight_at(1, 0), 3.0);
+/// let net = Mlp::new(vec![layer.clone()], Activation::Relu, Activation::Identity).unwrap();
+/// assert_eq!(net.forward(&[1.0, 1.0]), [3.0, 7.5, 10.0]);
+/// // Shapes are checked: six weights do not make a 3 × 3 layer.
+/// let wrong = Dense { inputs: 3, ..layer };
+/// assert!(Mlp::new(vec![wrong], Activation::Relu, Activation::Identity).is_err());
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Dense {
     pub inputs: usize,
@@ -278,6 +311,31 @@ impl Mlp {
     }
 
     /// Reads a network written by [`Mlp::save`], checking its shapes.
+    ///
+    /// ```
+    /// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+    /// use ghm::nn::{Activation, Dense, Mlp, NnError};
+    ///
+    /// // 2 → 3 (tanh) → 1 (identity)
+    /// let hidden = Dense { inputs: 2, outputs: 3, weight: vec![0.1, -0.2, 0.3, 0.4, -0.5, 0.6], bias: vec![0.0; 3] };
+    /// let last = Dense { inputs: 3, outputs: 1, weight: vec![1.0, -1.0, 0.5], bias: vec![0.25] };
+    /// let net = Mlp::new(vec![hidden, last], Activation::Tanh, Activation::Identity)?;
+    /// assert_eq!((net.inputs(), net.outputs(), net.parameter_count()), (2, 1, 13));
+    ///
+    /// let dir = std::env::temp_dir().join(format!("ghm-doc-mlp-{}", std::process::id()));
+    /// std::fs::create_dir_all(&dir)?;
+    /// let path = dir.join("net.json");
+    /// net.save(&path)?;
+    /// let back = Mlp::load(&path)?;
+    /// assert_eq!(back, net);
+    /// assert_eq!(back.forward(&[0.3, -0.7]), net.forward(&[0.3, -0.7]));
+    ///
+    /// std::fs::write(&path, "{}")?;
+    /// assert!(matches!(Mlp::load(&path), Err(NnError::Format { .. })));
+    /// std::fs::remove_dir_all(&dir)?;
+    /// # Ok(())
+    /// # }
+    /// ```
     pub fn load(path: &Path) -> Result<Mlp, NnError> {
         let text = std::fs::read_to_string(path).map_err(|source| NnError::Read {
             path: path.to_path_buf(),

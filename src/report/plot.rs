@@ -90,6 +90,48 @@ pub struct Figure {
 }
 
 /// Draws `figure` into a PNG at `path` (width about 1400 px, ~260 px per panel row). NaN/inf values are skipped, not drawn; an all-NaN or empty panel is drawn empty with its title; a constant series gets a sensible non-degenerate y range. Never panics on any data.
+///
+/// # Examples
+///
+/// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// use ghm::report::plot::{draw_png, Figure, Line, Panel};
+///
+/// let hours: Vec<f64> = (0..48).map(|k| k as f64 * 0.5).collect();
+/// let temperature: Vec<f64> = hours.iter().map(|h| 15.0 + 5.0 * (h / 24.0 * 6.28).sin()).collect();
+/// let mut heating = vec![50.0; 48];
+/// heating[10] = f64::NAN; // a gap, not an error
+/// let figure = Figure {
+///     title: "one day".into(),
+///     x_label: "hour".into(),
+///     x: hours,
+///     panels: vec![
+///         Panel {
+///             title: "indoor temperature".into(),
+///             unit: "°C".into(),
+///             lines: vec![Line { label: "temp".into(), values: temperature }],
+///             band: Some((10.0, 20.0)),
+///         },
+///         Panel {
+///             title: "heating".into(),
+///             unit: "W m⁻²".into(),
+///             lines: vec![Line { label: "heating".into(), values: heating }],
+///             band: None,
+///         },
+///     ],
+/// };
+/// let dir = std::env::temp_dir().join(format!("ghm-doc-plot-{}", std::process::id()));
+/// std::fs::create_dir_all(&dir)?;
+/// let path = dir.join("day.png");
+/// draw_png(&figure, &path)?;
+/// let png = std::fs::read(&path)?;
+/// assert_eq!(&png[1..4], b"PNG");
+/// let width = u32::from_be_bytes([png[16], png[17], png[18], png[19]]);
+/// assert_eq!(width, 1400);
+/// std::fs::remove_dir_all(&dir)?;
+/// # Ok(())
+/// # }
+/// ```
 pub fn draw_png(figure: &Figure, path: &Path) -> Result<(), PlotError> {
     let n = figure.panels.len();
     let cols = if n > 4 { 2 } else { 1 };
@@ -118,6 +160,25 @@ pub fn draw_png(figure: &Figure, path: &Path) -> Result<(), PlotError> {
 }
 
 /// A simple x–y chart with several lines (learning curves, reward vs horizon): same rules.
+///
+/// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// use ghm::report::plot::{draw_xy, Line};
+///
+/// let episodes = [1.0, 2.0, 3.0, 4.0];
+/// let lines = [
+///     Line { label: "train".into(), values: vec![-3.0, -2.0, -1.5, -1.2] },
+///     Line { label: "eval".into(), values: vec![f64::NAN, -2.2, f64::NAN, -1.3] },
+/// ];
+/// let path = std::env::temp_dir().join(format!("ghm-doc-curve-{}.png", std::process::id()));
+/// draw_xy("learning curve", "episode", "reward", &episodes, &lines, &path)?;
+/// let png = std::fs::read(&path)?;
+/// assert_eq!(u32::from_be_bytes([png[16], png[17], png[18], png[19]]), 1000); // width
+/// assert_eq!(u32::from_be_bytes([png[20], png[21], png[22], png[23]]), 600); // height
+/// std::fs::remove_file(&path)?;
+/// # Ok(())
+/// # }
+/// ```
 pub fn draw_xy(
     title: &str,
     x_label: &str,

@@ -394,6 +394,25 @@ pub fn observation_after_outputs(rest: &mut [f64], previous_input: &[f64], step:
 ///
 /// Errors: [`RlError::InputBounds`] (NaN or reversed bounds), [`RlError::UnboundedInput`]
 /// (no rate limit and an infinite range).
+///
+/// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// use ghm::model::ModelBuilder;
+/// use ghm::model::Plant;
+/// use ghm::rl::env::action_scale;
+///
+/// let mut b = ModelBuilder::new("two inputs");
+/// let x = b.state("x", 0.0);
+/// let fast = b.input("fast", 0.0, 10.0, None, 0.0); // no rate limit: its range
+/// let slow = b.input("slow", -1.0, 1.0, Some(0.1), 0.0); // its rate limit
+/// let rhs = b.add(fast, slow);
+/// b.der(x, rhs);
+/// b.sample(60.0, 1);
+/// let plant = Plant::new(b.build()?);
+/// assert_eq!(action_scale(&plant)?, [10.0, 0.1]);
+/// # Ok(())
+/// # }
+/// ```
 pub fn action_scale(plant: &Plant) -> Result<Vec<f64>, RlError> {
     let mut scale = Vec::with_capacity(plant.layout.nu);
     for decl in &plant.model.inputs {
@@ -418,6 +437,20 @@ pub fn action_scale(plant: &Plant) -> Result<Vec<f64>, RlError> {
 }
 
 /// The action map `u = clip(u_prev + clip(a, −1, 1) ⊙ δu, lower, upper)`.
+///
+/// ```
+/// use ghm::rl::env::input_from_action;
+///
+/// // Heating in [0, 150] W m⁻², at most 15 more or less per step, now at 50.
+/// let (scale, lower, upper) = ([15.0], [0.0], [150.0]);
+/// let mut u = [0.0];
+/// input_from_action(&[50.0], &[0.5], &scale, &lower, &upper, &mut u);
+/// assert_eq!(u, [57.5]);
+/// input_from_action(&[50.0], &[-3.0], &scale, &lower, &upper, &mut u); // a clipped to −1
+/// assert_eq!(u, [35.0]);
+/// input_from_action(&[145.0], &[1.0], &scale, &lower, &upper, &mut u); // u clipped to 150
+/// assert_eq!(u, [150.0]);
+/// ```
 pub fn input_from_action(
     previous: &[f64],
     action: &[f64],

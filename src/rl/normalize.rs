@@ -23,6 +23,33 @@ pub const DEFAULT_EPSILON: f64 = 1e-8;
 pub const DEFAULT_CLIP: f64 = 10.0;
 
 /// Running mean/variance observation normaliser. See the [module documentation](self).
+///
+/// # Examples
+///
+/// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// use ghm::rl::Normalizer;
+///
+/// // From a zero prior count, the statistics are those of the data: μ = (2, 10),
+/// // σ² = (1, 0) over the batch (1, 10), (3, 10).
+/// let mut n = Normalizer::from_stats(vec![0.0; 2], vec![1.0; 2], 0.0)?;
+/// n.update_batch(&[1.0, 10.0, 3.0, 10.0])?;
+/// assert_eq!((n.mean(), n.var(), n.count()), (&[2.0, 10.0][..], &[1.0, 0.0][..], 2.0));
+///
+/// // s' = clip((s − μ)/√(σ² + ε), −10, 10): a constant column blows up, and is clipped.
+/// let mut out = [0.0; 2];
+/// n.normalize(&[4.0, 10.01], &mut out)?;
+/// assert!((out[0] - 2.0).abs() < 1e-7);
+/// assert_eq!(out[1], 10.0);
+///
+/// // Frozen (a trained agent), it ignores updates; a wrong width is an error.
+/// n.freeze();
+/// n.update(&[100.0, 100.0])?;
+/// assert_eq!(n.mean(), [2.0, 10.0]);
+/// assert!(n.update(&[1.0]).is_err());
+/// # Ok(())
+/// # }
+/// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(try_from = "NormalizerData", into = "NormalizerData")]
 pub struct Normalizer {

@@ -31,6 +31,49 @@ pub enum SimError {
 }
 
 /// Parametric uncertainty of a season: relative half-width δ and a seed.
+///
+/// # Examples
+///
+/// The tank of [`Controller`] with its drain coefficient `k` marked `uncertain`: each
+/// seed draws another plant, the same seed the same one.
+///
+/// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// use ghm::control::ConstantInput;
+/// use ghm::model::Plant;
+/// use ghm::sim::season::{run_season, SeasonConfig, StepLog, UncertaintyDraw};
+/// use ghm::sim::weather::Weather;
+///
+/// # let text = "\
+/// # model tank
+/// # sample 60 [s] integrator euler
+/// # state level [m] = 1
+/// # input inflow [m s^-1] in [0, 0.01] rate 0.002 start 0
+/// # param k [s^-1] = 0.001 uncertain
+/// # der level = inflow - k * level
+/// # output h [m] = level
+/// # reward stored [EUR] = 2 * next(level)
+/// # cost pumping [EUR] = 50 * inflow
+/// # soft h in [0.5, 1.2] weight 10
+/// # ";
+/// let plant = Plant::new(ghm::lang::load_str("tank.ghm", text).map_err(|e| e.render())?);
+/// let weather = Weather::constant(vec![], &[], 5, plant.model.sample_period);
+/// let mut final_level = |uncertainty| -> Result<f64, Box<dyn std::error::Error>> {
+///     let config = SeasonConfig { steps: 5, enforce_limits: true, uncertainty };
+///     let mut hold = ConstantInput(vec![0.001]);
+///     Ok(run_season(&plant, &weather, &mut hold, &config, &mut |_: &StepLog| {})?.final_state[0])
+/// };
+/// let nominal = final_level(None)?;
+/// assert!((nominal - 1.0).abs() < 1e-12); // inflow = k · level: the level holds
+/// let draw = |seed| Some(UncertaintyDraw { delta: 0.2, seed });
+/// let (a, b) = (final_level(draw(1))?, final_level(draw(2))?);
+/// assert!(a != nominal && a != b);
+/// assert_eq!(final_level(draw(1))?, a);
+/// // k within ±20 %: after five minutes the level is within 0.06 m of 1 m.
+/// assert!((a - 1.0).abs() < 0.06 && (b - 1.0).abs() < 0.06);
+/// # Ok(())
+/// # }
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct UncertaintyDraw {
     pub delta: f64,
@@ -65,6 +108,55 @@ pub struct StepLog {
 }
 
 /// Receives each step as it is taken.
+///
+/// Any `FnMut(&StepLog)` closure is a sink that never fails; implement the trait to
+/// report a failure (a full disk, say), which stops the season with [`SimError::Sink`].
+///
+/// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// use ghm::control::ConstantInput;
+/// use ghm::model::Plant;
+/// use ghm::sim::season::{run_season, SeasonConfig, SimError, StepLog, StepSink};
+/// use ghm::sim::weather::Weather;
+///
+/// /// Keeps at most `room` rows.
+/// struct Rows {
+///     rows: Vec<String>,
+///     room: usize,
+/// }
+///
+/// impl StepSink for Rows {
+///     fn step(&mut self, log: &StepLog) -> Result<(), String> {
+///         if self.rows.len() == self.room {
+///             return Err(format!("no room for step {}", log.step));
+///         }
+///         self.rows.push(format!("{},{:.3},{:.4}", log.step, log.state[0], log.reward));
+///         Ok(())
+///     }
+/// }
+///
+/// # let text = "\
+/// # model tank
+/// # sample 60 [s] integrator euler
+/// # state level [m] = 1
+/// # input inflow [m s^-1] in [0, 0.01] rate 0.002 start 0
+/// # param k [s^-1] = 0.001
+/// # der level = inflow - k * level
+/// # output h [m] = level
+/// # reward stored [EUR] = 2 * next(level)
+/// # cost pumping [EUR] = 50 * inflow
+/// # soft h in [0.5, 1.2] weight 10
+/// # ";
+/// let plant = Plant::new(ghm::lang::load_str("tank.ghm", text).map_err(|e| e.render())?);
+/// let weather = Weather::constant(vec![], &[], 5, plant.model.sample_period);
+/// let config = SeasonConfig { steps: 5, enforce_limits: true, uncertainty: None };
+/// let mut sink = Rows { rows: Vec::new(), room: 3 };
+/// let result = run_season(&plant, &weather, &mut ConstantInput(vec![0.001]), &config, &mut sink);
+/// assert!(matches!(result, Err(SimError::Sink(ref m)) if m == "no room for step 3"));
+/// assert_eq!(sink.rows, ["0,1.000,1.9500", "1,1.000,1.9500", "2,1.000,1.9500"]);
+/// # Ok(())
+/// # }
+/// ```
 pub trait StepSink {
     fn step(&mut self, log: &StepLog) -> Result<(), String>;
 }
@@ -84,6 +176,35 @@ pub struct SeasonResult {
 }
 
 /// Draws p̂ under the model's uncertainty rule.
+///
+/// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// use ghm::model::Plant;
+/// use ghm::sim::season::draw_params;
+/// use rand::SeedableRng;
+/// use rand_chacha::ChaCha8Rng;
+///
+/// let text = "\
+/// sample 60 [s]
+/// state level = 1
+/// param k [s^-1] = 0.001 uncertain
+/// param area [m^2] = 4
+/// der level = -k * level / area
+/// output h = level
+/// uncertainty spread = 1, params = marked
+/// ";
+/// let plant = Plant::new(ghm::lang::load_str("tank.ghm", text).map_err(|e| e.render())?);
+/// let mut rng = ChaCha8Rng::seed_from_u64(1);
+/// for _ in 0..20 {
+///     // δ = 10 %: k ~ U(0.0009, 0.0011); `area` is not marked `uncertain`.
+///     let p = draw_params(&plant, 0.1, &mut rng);
+///     assert!(p[0] >= 0.0009 - 1e-18 && p[0] <= 0.0011 + 1e-18);
+///     assert_eq!(p[1], 4.0);
+/// }
+/// assert_eq!(draw_params(&plant, 0.0, &mut rng), [0.001, 4.0]);
+/// # Ok(())
+/// # }
+/// ```
 pub fn draw_params(plant: &Plant, delta: f64, rng: &mut ChaCha8Rng) -> Vec<f64> {
     let mut params = plant.model.nominal_params();
     draw_params_into(plant, delta, rng, &mut params);
@@ -114,6 +235,68 @@ pub fn draw_params_into(plant: &Plant, delta: f64, rng: &mut ChaCha8Rng, params:
 }
 
 /// Runs one season from the model's initial state and start input.
+///
+/// Every step goes to `sink` as it is taken (a closure `|log: &StepLog| ...` is a sink);
+/// with `enforce_limits` the controller's input is clipped to the bounds and rate limits
+/// first, as a real actuator would.
+///
+/// # Examples
+///
+/// A tank (the one of [`Controller`]: level 1 m, draining at 0.001 s⁻¹, inflow up to
+/// 0.01 m s⁻¹ and by at most 0.002 m s⁻¹ more per minute) with the pump asked for full
+/// power:
+///
+/// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// use ghm::control::ConstantInput;
+/// use ghm::model::Plant;
+/// use ghm::sim::season::{run_season, SeasonConfig, SimError, StepLog};
+/// use ghm::sim::weather::Weather;
+///
+/// # let text = "\
+/// # model tank
+/// # sample 60 [s] integrator euler
+/// # state level [m] = 1
+/// # input inflow [m s^-1] in [0, 0.01] rate 0.002 start 0
+/// # param k [s^-1] = 0.001
+/// # der level = inflow - k * level
+/// # output h [m] = level
+/// # reward stored [EUR] = 2 * next(level)
+/// # cost pumping [EUR] = 50 * inflow
+/// # soft h in [0.5, 1.2] weight 10
+/// # ";
+/// let plant = Plant::new(ghm::lang::load_str("tank.ghm", text).map_err(|e| e.render())?);
+/// let weather = Weather::constant(vec![], &[], 8, plant.model.sample_period);
+/// let mut full = ConstantInput(vec![0.01]);
+/// let mut config = SeasonConfig { steps: 8, enforce_limits: true, uncertainty: None };
+///
+/// let mut logs: Vec<StepLog> = Vec::new();
+/// let result = run_season(&plant, &weather, &mut full, &config, &mut |log: &StepLog| {
+///     logs.push(log.clone())
+/// })?;
+/// let applied: Vec<f64> = logs.iter().map(|l| l.input[0]).collect();
+/// let ramp = [0.002, 0.004, 0.006, 0.008, 0.01, 0.01, 0.01, 0.01]; // the rate limit
+/// assert!(applied.iter().zip(ramp).all(|(a, r)| (a - r).abs() < 1e-15));
+/// // The log's state is the state before the step; the result holds the last one.
+/// assert_eq!(logs[0].state, [1.0]);
+/// assert!(result.final_state[0] > 1.0);
+/// assert_eq!(logs[7].cumulative_reward, result.metrics.cumulative_reward);
+///
+/// // Without the limits the plant gets what the controller asks for.
+/// config.enforce_limits = false;
+/// let mut first = None;
+/// run_season(&plant, &weather, &mut full, &config, &mut |log: &StepLog| {
+///     first.get_or_insert(log.input[0]);
+/// })?;
+/// assert_eq!(first, Some(0.01));
+///
+/// // The weather must cover the season.
+/// config.steps = 9;
+/// let short = run_season(&plant, &weather, &mut full, &config, &mut |_: &StepLog| {});
+/// assert!(matches!(short, Err(SimError::WeatherTooShort { available: 8, needed: 9 })));
+/// # Ok(())
+/// # }
+/// ```
 pub fn run_season(
     plant: &Plant,
     weather: &Weather,
@@ -221,6 +404,14 @@ pub fn run_season(
 
 /// A seed for the `index`-th of many independent streams derived from `seed` (a
 /// SplitMix64 finaliser over `seed ^ index · φ`): training episodes, value roll-outs.
+///
+/// ```
+/// use ghm::sim::season::derived_seed;
+///
+/// assert_eq!(derived_seed(7, 3), derived_seed(7, 3)); // reproducible
+/// assert_ne!(derived_seed(7, 3), derived_seed(7, 4));
+/// assert_ne!(derived_seed(7, 3), derived_seed(8, 3));
+/// ```
 pub fn derived_seed(seed: u64, index: u64) -> u64 {
     let mut z = seed ^ index.wrapping_mul(0x9E37_79B9_7F4A_7C15);
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);

@@ -82,6 +82,51 @@ pub struct ValueData {
 
 /// Samples the roll-outs in parallel. `make_guide` builds one guide per roll-out;
 /// `progress` is called with the number of roll-outs finished so far.
+///
+/// # Examples
+///
+/// The tank of [`Controller`], guided by a constant inflow over a ten-minute season:
+///
+/// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// use ghm::control::{ConstantInput, Controller};
+/// use ghm::model::Plant;
+/// use ghm::sim::value_data::{nominal_run, sample_returns, ValueDataConfig};
+/// use ghm::sim::weather::Weather;
+///
+/// # let text = "\
+/// # model tank
+/// # sample 60 [s] integrator euler
+/// # state level [m] = 1
+/// # input inflow [m s^-1] in [0, 0.01] rate 0.002 start 0
+/// # param k [s^-1] = 0.001
+/// # der level = inflow - k * level
+/// # output h [m] = level
+/// # reward stored [EUR] = 2 * next(level)
+/// # cost pumping [EUR] = 50 * inflow
+/// # soft h in [0.5, 1.2] weight 10
+/// # ";
+/// let plant = Plant::new(ghm::lang::load_str("tank.ghm", text).map_err(|e| e.render())?);
+/// let steps = 10;
+/// let weather = Weather::constant(vec![], &[], steps, plant.model.sample_period);
+/// let nominal = nominal_run(&plant, &weather, steps, &mut ConstantInput(vec![0.001]))?;
+/// assert_eq!((nominal.states.len(), nominal.inputs.len()), (steps + 1, steps));
+///
+/// let guide = || Box::new(ConstantInput(vec![0.001])) as Box<dyn Controller>;
+/// let config = ValueDataConfig { trajectories: 8, spread: 0.1, seed: 3, state_index: 0 };
+/// let data = sample_returns(&plant, &weather, steps, &nominal, &guide, &config, &|_| {})?;
+/// assert_eq!((data.trajectories, data.dropped), (8, 0));
+/// assert_eq!(data.features.len(), 2 * data.returns.len()); // (level, step) → return
+/// for point in data.features.chunks(2) {
+///     assert!((0.85..1.15).contains(&point[0])); // within ±10 % of the level, 1 m
+///     assert!(point[1] < steps as f64);
+/// }
+/// // The same seed gives the same data, however many threads ran it.
+/// let again = sample_returns(&plant, &weather, steps, &nominal, &guide, &config, &|_| {})?;
+/// assert_eq!(again, data);
+/// # Ok(())
+/// # }
+/// ```
 pub fn sample_returns(
     plant: &Plant,
     weather: &Weather,

@@ -10,6 +10,35 @@
 //!
 //! [`WeatherFrame::select`] then picks the model's disturbances, in the model's
 //! order, as a [`Weather`] with perfect-forecast horizon access.
+//!
+//! # Examples
+//!
+//! Two days of the built-in season at the lettuce model's 30-minute period, as the model's
+//! disturbances:
+//!
+//! ```
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! use ghm::sim::weather::{builtin_season, RADIATION, TEMPERATURE};
+//!
+//! let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/lettuce.ghm");
+//! let model = ghm::lang::load(&file).map_err(|e| e.render())?;
+//! let frame = builtin_season(96, model.sample_period, 2014);
+//! assert_eq!((frame.rows(), frame.period_s), (96, 1800.0));
+//! let columns = model.weather_columns(); // radiation, CO₂, temperature, humidity
+//! assert_eq!((columns[0].as_str(), columns[2].as_str()), (RADIATION, TEMPERATURE));
+//!
+//! let weather = frame.select(&columns, 0, 96)?;
+//! assert_eq!((weather.len(), weather.width()), (96, 4));
+//! assert_eq!(weather.at(0)[0], 0.0); // 01:00 on 8 February: dark
+//! let noon = weather.at(22); // 12:00 on 8 February
+//! assert!(noon[0] > 0.0);
+//! // A perfect forecast: six rows from step 20 on, row-major, as MPC reads it.
+//! let forecast = weather.horizon(20, 6).unwrap();
+//! assert_eq!(&forecast[2 * 4..3 * 4], noon);
+//! assert!(weather.horizon(92, 6).is_none()); // runs past the end
+//! # Ok(())
+//! # }
+//! ```
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -165,6 +194,22 @@ impl WeatherFrame {
 
     /// Picks `wanted` columns (in that order) from row `start_row`, `steps` rows.
     /// Errors: MissingColumn, TooShort.
+    ///
+    /// ```
+    /// use ghm::sim::weather::{builtin_season, WeatherError, RADIATION, TEMPERATURE};
+    ///
+    /// let frame = builtin_season(48, 3600.0, 1);
+    /// let wanted = [TEMPERATURE.to_string(), RADIATION.to_string()];
+    /// let weather = frame.select(&wanted, 24, 12).unwrap(); // the second day's first half
+    /// let temperature = frame.column(TEMPERATURE).unwrap();
+    /// assert_eq!(weather.at(0), [temperature[24], frame.column(RADIATION).unwrap()[24]]);
+    ///
+    /// let missing = frame.select(&["wind_ms".to_string()], 0, 12).unwrap_err();
+    /// assert!(matches!(missing, WeatherError::MissingColumn { .. }));
+    /// assert!(missing.to_string().contains("no column `wind_ms`"));
+    /// let too_long = frame.select(&wanted, 40, 12).unwrap_err();
+    /// assert!(matches!(too_long, WeatherError::TooShort { available: 48, needed: 52, .. }));
+    /// ```
     pub fn select(
         &self,
         wanted: &[String],
@@ -209,6 +254,17 @@ pub struct Weather {
 impl Weather {
     /// Builds a weather from row-major `data`; checks that `data.len()` is a
     /// multiple of `names.len()`, that every value is finite and `period_s > 0`.
+    ///
+    /// ```
+    /// use ghm::sim::weather::Weather;
+    ///
+    /// let names = vec!["temp_out".to_string(), "rain".to_string()];
+    /// let weather = Weather::new("by hand", 600.0, names.clone(), vec![5.0, 0.0, 6.0, 0.1]).unwrap();
+    /// assert_eq!((weather.len(), weather.width()), (2, 2));
+    /// assert_eq!(weather.at(1), [6.0, 0.1]);
+    /// assert!(Weather::new("by hand", 600.0, names.clone(), vec![5.0, 0.0, 6.0]).is_err());
+    /// assert!(Weather::new("by hand", 600.0, names, vec![5.0, f64::NAN]).is_err());
+    /// ```
     pub fn new(
         source: impl Into<String>,
         period_s: f64,
@@ -277,6 +333,19 @@ impl Weather {
     ///
     /// # Panics
     /// If `values.len() != names.len()` or `period_s` is not positive (programming errors).
+    ///
+    /// # Examples
+    ///
+    /// ```
+    /// use ghm::sim::weather::Weather;
+    ///
+    /// let weather = Weather::constant(vec!["temp_out".into()], &[4.5], 48, 1800.0);
+    /// assert_eq!(weather.len(), 48);
+    /// assert_eq!(weather.horizon(40, 8).unwrap(), [4.5; 8]);
+    /// // A plant without disturbances still gets a season length.
+    /// let none = Weather::constant(vec![], &[], 10, 60.0);
+    /// assert_eq!((none.len(), none.width()), (10, 0));
+    /// ```
     pub fn constant(names: Vec<String>, values: &[f64], len: usize, period_s: f64) -> Weather {
         assert_eq!(
             values.len(),
@@ -335,6 +404,32 @@ fn check_step(path: &Path, row: u64, expected: f64, found: f64) -> Result<(), We
 /// and `time_s` are parsed, in every row: they must be numeric and finite, and
 /// errors name the file, the 1-based line and the column. Other columns may
 /// hold anything. The frame holds `needed_columns` in that order, plus `time_s`.
+///
+/// # Examples
+///
+/// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// use ghm::sim::weather::{load_csv, WeatherError};
+///
+/// let dir = std::env::temp_dir().join(format!("ghm-doc-load-csv-{}", std::process::id()));
+/// std::fs::create_dir_all(&dir)?;
+/// let path = dir.join("weather.csv");
+/// std::fs::write(&path, "time_s,temp_out_C,note\n0,4.5,frost\n900,4.75,\n1800,5.0,\n")?;
+///
+/// let frame = load_csv(&path, &["temp_out_C".to_string()], 3600.0)?;
+/// assert_eq!(frame.period_s, 900.0); // from `time_s`, not the default
+/// assert_eq!(frame.columns, ["temp_out_C", "time_s"]);
+/// assert_eq!(frame.column("temp_out_C").unwrap(), [4.5, 4.75, 5.0]);
+///
+/// // A bad cell: the message names the file, the line and the column.
+/// std::fs::write(&path, "time_s,temp_out_C\n0,4.5\n900,warm\n")?;
+/// let error = load_csv(&path, &["temp_out_C".to_string()], 3600.0).unwrap_err();
+/// assert!(matches!(error, WeatherError::NotNumeric { row: 3, .. }));
+/// assert!(error.to_string().ends_with("line 3, column `temp_out_C`: `warm` is not a number; fix or remove that row"));
+/// std::fs::remove_dir_all(&dir)?;
+/// # Ok(())
+/// # }
+/// ```
 pub fn load_csv(
     path: &Path,
     needed_columns: &[String],
@@ -438,6 +533,40 @@ fn interp(v: &[f64], x: f64) -> f64 {
 /// `period_s` from the first row's HH to the last row's radiation midpoint
 /// (HH − 0.5), so nothing is extrapolated. Rows must be consecutive hours of one
 /// station; empty T/Q/U cells are errors (never filled).
+///
+/// # Examples
+///
+/// Three hours of a station: T = 5, 6, 7 °C and Q = 36, 72, 108 J cm⁻² (100, 200,
+/// 300 W m⁻² over the hours ending at 10, 11 and 12 UT), on a 30-minute grid:
+///
+/// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// use ghm::sim::weather::{load_knmi, WeatherError, RADIATION, TEMPERATURE};
+///
+/// let dir = std::env::temp_dir().join(format!("ghm-doc-knmi-{}", std::process::id()));
+/// std::fs::create_dir_all(&dir)?;
+/// let path = dir.join("uurgeg.txt");
+/// let header = "# STN,YYYYMMDD,   HH,    T,    Q,    U\n";
+/// let rows = "  380,20140208,   10,   50,   36,   80
+///   380,20140208,   11,   60,   72,   75
+///   380,20140208,   12,   70,  108,   70
+/// ";
+/// std::fs::write(&path, format!("{header}{rows}"))?;
+///
+/// let frame = load_knmi(&path, 1800.0, 400.0)?;
+/// assert_eq!(frame.rows(), 4); // 10:00 to 11:30, the last radiation midpoint
+/// let close = |a: Vec<f64>, b: [f64; 4]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-9);
+/// assert!(close(frame.column(RADIATION).unwrap(), [150.0, 200.0, 250.0, 300.0]));
+/// assert!(close(frame.column(TEMPERATURE).unwrap(), [5.0, 5.5, 6.0, 6.5]));
+///
+/// // A missing observation is an error, never filled in.
+/// std::fs::write(&path, format!("{header}{}", rows.replace("   60,", "     ,")))?;
+/// let error = load_knmi(&path, 1800.0, 400.0).unwrap_err();
+/// assert!(matches!(error, WeatherError::KnmiMissing { row: 3, .. }), "{error}");
+/// std::fs::remove_dir_all(&dir)?;
+/// # Ok(())
+/// # }
+/// ```
 pub fn load_knmi(path: &Path, period_s: f64, co2_ppm: f64) -> Result<WeatherFrame, WeatherError> {
     if !(period_s.is_finite() && period_s > 0.0 && co2_ppm.is_finite() && co2_ppm > 0.0) {
         let m = format!("KNMI period {period_s} s and CO2 {co2_ppm} ppm must be positive");
@@ -588,6 +717,25 @@ fn sunrise_hour(doy: f64) -> f64 {
 ///
 /// # Panics
 /// If `period_s` is not positive and finite.
+///
+/// # Examples
+///
+/// ```
+/// use ghm::sim::weather::{builtin_season, CO2_DENSITY, RADIATION, TEMPERATURE, VAPOUR_DENSITY};
+///
+/// let day = builtin_season(24, 3600.0, 7);
+/// assert_eq!(day.columns, [RADIATION, CO2_DENSITY, TEMPERATURE, VAPOUR_DENSITY]);
+/// assert_eq!((day.rows(), day.period_s), (24, 3600.0));
+/// // Same seed, same weather; a shorter run is a prefix of a longer one.
+/// let two_days = builtin_season(48, 3600.0, 7);
+/// assert_eq!(day.data[..], two_days.data[..day.data.len()]);
+/// assert_ne!(builtin_season(24, 3600.0, 8).data, day.data);
+/// // Dark at night (the first row is 01:00), sunny around noon, late-winter temperatures.
+/// let radiation = day.column(RADIATION).unwrap();
+/// assert_eq!(radiation[0], 0.0);
+/// assert!(radiation[11] > 0.0);
+/// assert!(day.column(TEMPERATURE).unwrap().iter().all(|t| (-15.0..25.0).contains(t)));
+/// ```
 pub fn builtin_season(steps: usize, period_s: f64, seed: u64) -> WeatherFrame {
     assert!(
         period_s.is_finite() && period_s > 0.0,

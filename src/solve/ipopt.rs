@@ -68,6 +68,39 @@ const LINEAR_SOLVERS: [&str; 10] = [
 static IPOPT_LOCK: Mutex<()> = Mutex::new(());
 
 /// IPOPT as a [`Solver`]. Solves from several threads are safe but run one at a time.
+///
+/// # Examples
+///
+/// (Built and run only with `--features ipopt`.) One and the same optimal-control problem,
+/// the CSTR over four steps, solved by IPOPT and by the default [`Sqp`](crate::solve::Sqp):
+/// the back-ends agree.
+///
+/// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// use ghm::nlp::{Nlp, Ocp};
+/// use ghm::solve::{Ipopt, IpoptOptions, Solver, Sqp, Start};
+/// use std::sync::Arc;
+///
+/// let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/cstr.ghm");
+/// let plant = Arc::new(ghm::model::Plant::new(ghm::lang::load(&file).map_err(|e| e.render())?));
+/// let mut ocp = Ocp::new(plant.clone(), 4)?;
+/// let (x0, u0) = (plant.model.initial_state(), plant.model.start_input());
+/// ocp.set_problem(0, &x0, &u0, &[])?; // no disturbances
+/// let mut start = vec![0.0; ocp.n_vars()];
+/// ocp.initial_point(&mut start);
+///
+/// let by_ipopt = Ipopt::new(IpoptOptions::default()).solve(&mut ocp, Start::cold(&start));
+/// let by_sqp = Sqp::default().solve(&mut ocp, Start::cold(&start));
+/// assert!(by_ipopt.status.is_success() && by_sqp.status.is_success());
+/// let (a, b) = (by_ipopt.stats.objective, by_sqp.stats.objective);
+/// assert!((a - b).abs() <= 1e-6 * (1.0 + b.abs()), "{a} against {b}");
+/// // The first input, the one MPC applies, within its rate limit of 3 K.
+/// let u = ocp.input(&by_ipopt.x, 0)[0];
+/// assert!((u - ocp.input(&by_sqp.x, 0)[0]).abs() < 1e-4);
+/// assert!((u - 300.0).abs() <= 3.0 + 1e-7);
+/// # Ok(())
+/// # }
+/// ```
 #[derive(Debug, Clone, Default)]
 pub struct Ipopt {
     pub options: IpoptOptions,

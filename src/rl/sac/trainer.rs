@@ -158,6 +158,82 @@ pub struct BestPolicy {
 }
 
 /// A SAC training over an environment. See the [module documentation](self).
+///
+/// # Examples
+///
+/// A few ten-minute episodes on a tank with tiny networks (a real training uses the
+/// defaults, a whole season and hours): a warm-up episode, then learning with an
+/// evaluation after each episode; a training resumed from a checkpoint is bit-for-bit the
+/// uninterrupted one; the result is a [`PolicyFile`] that drives the plant.
+///
+/// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// use ghm::control::Policy;
+/// use ghm::model::Plant;
+/// use ghm::rl::sac::{SacConfig, StepProgress, Trainer};
+/// use ghm::rl::Env;
+/// use ghm::sim::season::{run_season, SeasonConfig, StepLog};
+/// use ghm::sim::weather::Weather;
+/// use std::sync::Arc;
+///
+/// # let text = "\
+/// # model tank
+/// # sample 60 [s] integrator euler
+/// # state level [m] = 1
+/// # input inflow [m s^-1] in [0, 0.01] rate 0.002 start 0
+/// # param k [s^-1] = 0.001
+/// # der level = inflow - k * level
+/// # output h [m] = level
+/// # reward stored [EUR] = 2 * next(level)
+/// # cost pumping [EUR] = 50 * inflow
+/// # soft h in [0.5, 1.2] weight 10
+/// # ";
+/// let plant = Arc::new(Plant::new(ghm::lang::load_str("tank.ghm", text).map_err(|e| e.render())?));
+/// let steps = 10;
+/// let weather = Weather::constant(vec![], &[], steps, plant.model.sample_period);
+/// let env = Env::new(plant.clone(), weather.clone(), steps, None)?;
+/// let config = SacConfig {
+///     hidden: vec![8],
+///     batch_size: 8,
+///     buffer_size: 100,
+///     warmup_episodes: 1,
+///     episodes: 3,
+///     eval_every: 1,
+///     ..SacConfig::default()
+/// };
+/// let mut quiet = |_: &StepProgress| {};
+///
+/// let mut trainer = Trainer::new(env.clone(), config.clone())?;
+/// while !trainer.is_finished() {
+///     trainer.run_episode(&mut quiet)?;
+/// }
+/// let curve = trainer.curve();
+/// assert_eq!(curve.len(), 3);
+/// assert!(curve[0].warmup && !curve[1].warmup);
+/// assert_eq!(curve[2].total_steps, 30);
+/// assert!(curve.iter().all(|r| r.eval_reward.is_some()));
+///
+/// // Stop after two episodes, save, resume: the third episode is the same.
+/// let dir = std::env::temp_dir().join(format!("ghm-doc-sac-{}", std::process::id()));
+/// let mut first = Trainer::new(env.clone(), config)?;
+/// first.run_episode(&mut quiet)?;
+/// first.run_episode(&mut quiet)?;
+/// first.save_checkpoint(&dir)?;
+/// let mut resumed = Trainer::resume(env, &dir)?;
+/// let third = resumed.run_episode(&mut quiet)?;
+/// assert_eq!((third.reward, third.critic_loss), (curve[2].reward, curve[2].critic_loss));
+/// std::fs::remove_dir_all(&dir)?;
+///
+/// // The policy to ship: the best evaluated one, as plain weights.
+/// let file = trainer.policy(&plant.model.name)?;
+/// assert_eq!(file.observation_names.len(), 3); // level, previous inflow, step
+/// let mut policy = Policy::new(&plant, file)?;
+/// let season = SeasonConfig { steps, enforce_limits: false, uncertainty: None };
+/// let result = run_season(&plant, &weather, &mut policy, &season, &mut |_: &StepLog| {})?;
+/// assert!(result.metrics.cumulative_reward.is_finite());
+/// # Ok(())
+/// # }
+/// ```
 pub struct Trainer {
     pub(crate) config: SacConfig,
     env: Env,
