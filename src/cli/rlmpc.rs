@@ -93,7 +93,7 @@ fn resolve_value(args: &RlmpcArgs) -> Result<ValueFile, CliError> {
             }
         )));
     }
-    ValueFile::load(&path).map_err(CliError::Argument)
+    ValueFile::load(&path).map_err(|e| CliError::Argument(e.to_string()))
 }
 
 pub fn run(args: &RlmpcArgs) -> Result<(), CliError> {

@@ -55,6 +55,12 @@ pub struct Decision {
 pub enum ControlError {
     #[error("the input table has {rows} rows; step {step} needs one more")]
     TableTooShort { rows: usize, step: usize },
+    /// A value-function file that cannot be read, written or used.
+    #[error("{path}: {reason}")]
+    ValueFile {
+        path: std::path::PathBuf,
+        reason: String,
+    },
     #[error("{0}")]
     Other(String),
 }

@@ -9,6 +9,7 @@
 //! * [`taylor_terminal_cost`] (`taylor`, the paper's fast version): the first-order
 //!   expansion of `−V` around the guess's terminal state.
 
+use crate::control::ControlError;
 use crate::nlp::{LinearTerminalCost, TerminalCost};
 use crate::nn::ScaledMlp;
 use num_dual::second_derivative;
@@ -70,25 +71,29 @@ impl ValueFile {
             .evaluate(&[state[self.state_index], step as f64])
     }
 
-    pub fn save(&self, path: &Path) -> Result<(), String> {
-        let text = serde_json::to_string(self).map_err(|e| e.to_string())?;
-        std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
+    pub fn save(&self, path: &Path) -> Result<(), ControlError> {
+        let fail = |reason: String| ControlError::ValueFile {
+            path: path.to_path_buf(),
+            reason,
+        };
+        let text = serde_json::to_string(self).map_err(|e| fail(e.to_string()))?;
+        std::fs::write(path, text).map_err(|e| fail(format!("cannot write: {e}")))
     }
 
-    pub fn load(path: &Path) -> Result<ValueFile, String> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-        let file: ValueFile = serde_json::from_str(&text)
-            .map_err(|e| format!("{} is not a value file: {e}", path.display()))?;
-        file.function
-            .validate()
-            .map_err(|e| format!("{}: {e}", path.display()))?;
+    pub fn load(path: &Path) -> Result<ValueFile, ControlError> {
+        let fail = |reason: String| ControlError::ValueFile {
+            path: path.to_path_buf(),
+            reason,
+        };
+        let text = std::fs::read_to_string(path).map_err(|e| fail(format!("cannot read: {e}")))?;
+        let file: ValueFile =
+            serde_json::from_str(&text).map_err(|e| fail(format!("not a value file: {e}")))?;
+        file.function.validate().map_err(|e| fail(e.to_string()))?;
         if file.function.net.inputs() != 2 {
-            return Err(format!(
-                "{}: the value network takes {} inputs; (state, step) needs 2",
-                path.display(),
+            return Err(fail(format!(
+                "the value network takes {} inputs; (state, step) needs 2",
                 file.function.net.inputs()
-            ));
+            )));
         }
         Ok(file)
     }

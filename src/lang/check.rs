@@ -49,6 +49,16 @@ pub struct CheckFailure {
     pub diagnostics: Vec<Diagnostic>,
 }
 
+/// Displays as [`CheckFailure::render`], so that `?` carries the full message into any
+/// `Box<dyn Error>`.
+impl std::fmt::Display for CheckFailure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.render().trim_end())
+    }
+}
+
+impl std::error::Error for CheckFailure {}
+
 impl CheckFailure {
     /// The diagnostics rendered as text with `file:line:col`, source lines and carets.
     pub fn render(&self) -> String {

@@ -13,12 +13,13 @@ mod builder;
 mod penalty;
 pub mod verify;
 
+pub use crate::lang::model::{Layout, SoftBand};
 pub use builder::{BuildError, Ex, ModelBuilder};
 pub use penalty::{band_penalty, StagePenalty};
 
 use crate::graph::{Graph, NodeId, Tape, Workspace};
 use crate::lang::ast::TermKind;
-use crate::lang::model::{Integrator, Layout, Model};
+use crate::lang::model::{Integrator, Model};
 
 /// Builds the discrete step `x⁺ = F(x, u, d, p)` as graph nodes over the base variables.
 ///
@@ -164,8 +165,8 @@ pub struct Plant {
     output: Tape,
 }
 
-/// One step's results.
-#[derive(Debug, Clone, PartialEq)]
+/// One step's results (empty buffers by default, filled by [`Plant::step_into`]).
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct StepOutcome {
     pub next_state: Vec<f64>,
     /// Each stage term's reward contribution (costs negative), in `Plant::stage_term_index` order.
@@ -269,7 +270,7 @@ impl Plant {
     /// let plant = Plant::new(ghm::lang::load(&file).map_err(|e| e.render())?);
     /// let (mut x, p) = (plant.model.initial_state(), plant.model.nominal_params());
     /// let mut ws = plant.workspace();
-    /// let mut out = StepOutcome { next_state: vec![], terms: vec![], next_outputs: vec![] };
+    /// let mut out = StepOutcome::default();
     /// // The reactor starts at its low steady state for a coolant at 300 K: it stays there.
     /// for _ in 0..10 {
     ///     plant.step_into(&mut ws, &x, &[300.0], &[], &p, &mut out);

@@ -79,7 +79,8 @@ pub struct SolveStats {
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct Metrics {
     pub steps: usize,
-    /// Economic performance indicator: Σ economic stage reward (€ m⁻²).
+    /// Economic performance indicator: Σ economic stage terms, in the model's units of
+    /// money (€ m⁻² for the greenhouse).
     pub epi: f64,
     pub total_penalty: f64,
     /// EPI − Σ penalties.
