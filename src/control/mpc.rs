@@ -8,7 +8,8 @@
 //! shifted solution SQP needs two or three, and one that needs many more is usually stuck
 //! on a flat stretch of the economic cost, where a cold start is the better use of time.
 //!
-//! 1. `cold_start`: solve again from the held previous input, simulated;
+//! 1. `cold_start`: solve again from the held previous input, simulated (under guidance:
+//!    from a fresh roll-out of the guide, its terminal region re-centred on it);
 //! 2. `shifted_plan`: apply the second input of the last successful plan;
 //! 3. `guide_input` (RL-guided MPC only): the guide's own input;
 //! 4. `hold_input`: hold the previous input (within the bounds and rate limits).
@@ -179,9 +180,22 @@ impl Mpc {
         Ok(solution)
     }
 
-    fn solve_cold(&mut self) -> Solution {
-        self.ocp.initial_point(&mut self.start_x);
-        self.solver.solve(&mut self.ocp, Start::cold(&self.start_x))
+    /// The cold start: from the held previous input, simulated; under guidance, from a
+    /// fresh roll-out of the guide from the measured state, with the terminal region
+    /// re-centred on it (the held input's trajectory usually lies outside a region built
+    /// around the shifted plan, and the first QP is then infeasible).
+    fn solve_cold(&mut self, observation: &Observation) -> Result<Solution, ControlError> {
+        match self.guidance.as_mut() {
+            Some(guidance) => guidance.prepare(
+                &mut self.ocp,
+                observation,
+                &self.forecast,
+                None,
+                &mut self.start_x,
+            )?,
+            None => self.ocp.initial_point(&mut self.start_x),
+        }
+        Ok(self.solver.solve(&mut self.ocp, Start::cold(&self.start_x)))
     }
 
     /// The fallback inputs when no solve succeeded.
@@ -241,7 +255,7 @@ impl Controller for Mpc {
             iterations += s.stats.iterations;
         }
         if solution.as_ref().is_none_or(|s| !s.status.is_success()) {
-            let cold = self.solve_cold();
+            let cold = self.solve_cold(observation)?;
             iterations += cold.stats.iterations;
             if warm_failed {
                 fallback = Some("cold_start".to_string());
