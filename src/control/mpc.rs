@@ -8,8 +8,8 @@
 //! shifted solution SQP needs two or three, and one that needs many more is usually stuck
 //! on a flat stretch of the economic cost, where a cold start is the better use of time.
 //!
-//! 1. `cold_start`: solve again from the held previous input, simulated (under guidance:
-//!    from a fresh roll-out of the guide, its terminal region re-centred on it);
+//! 1. `cold_start`: solve again from the held previous input, simulated (under guidance,
+//!    first from a fresh roll-out of the guide, its terminal region re-centred on it);
 //! 2. `shifted_plan`: apply the second input of the last successful plan;
 //! 3. `guide_input` (RL-guided MPC only): the guide's own input;
 //! 4. `hold_input`: hold the previous input (within the bounds and rate limits).
@@ -180,22 +180,34 @@ impl Mpc {
         Ok(solution)
     }
 
-    /// The cold start: from the held previous input, simulated; under guidance, from a
-    /// fresh roll-out of the guide from the measured state, with the terminal region
-    /// re-centred on it (the held input's trajectory usually lies outside a region built
-    /// around the shifted plan, and the first QP is then infeasible).
-    fn solve_cold(&mut self, observation: &Observation) -> Result<Solution, ControlError> {
-        match self.guidance.as_mut() {
-            Some(guidance) => guidance.prepare(
+    /// The cold start: from the held previous input, simulated. Under guidance, a fresh
+    /// roll-out of the guide from the measured state, with the terminal region re-centred
+    /// on it, is tried first (capped like the warm start): the held input's trajectory
+    /// usually lies outside a region built around the shifted plan, and its first QP is
+    /// then infeasible. Returns the solution and the iterations of every attempt.
+    fn solve_cold(&mut self, observation: &Observation) -> Result<(Solution, usize), ControlError> {
+        let mut iterations = 0;
+        if let Some(guidance) = self.guidance.as_mut() {
+            guidance.prepare(
                 &mut self.ocp,
                 observation,
                 &self.forecast,
                 None,
                 &mut self.start_x,
-            )?,
-            None => self.ocp.initial_point(&mut self.start_x),
+            )?;
+            self.solver.set_iteration_limit(self.warm_iteration_limit);
+            let guided = self.solver.solve(&mut self.ocp, Start::cold(&self.start_x));
+            self.solver.set_iteration_limit(None);
+            if guided.status.is_success() {
+                let n = guided.stats.iterations;
+                return Ok((guided, n));
+            }
+            iterations += guided.stats.iterations;
         }
-        Ok(self.solver.solve(&mut self.ocp, Start::cold(&self.start_x)))
+        self.ocp.initial_point(&mut self.start_x);
+        let plain = self.solver.solve(&mut self.ocp, Start::cold(&self.start_x));
+        iterations += plain.stats.iterations;
+        Ok((plain, iterations))
     }
 
     /// The fallback inputs when no solve succeeded.
@@ -255,8 +267,8 @@ impl Controller for Mpc {
             iterations += s.stats.iterations;
         }
         if solution.as_ref().is_none_or(|s| !s.status.is_success()) {
-            let cold = self.solve_cold(observation)?;
-            iterations += cold.stats.iterations;
+            let (cold, cold_iterations) = self.solve_cold(observation)?;
+            iterations += cold_iterations;
             if warm_failed {
                 fallback = Some("cold_start".to_string());
             }
