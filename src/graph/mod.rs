@@ -2,7 +2,7 @@
 //! hash-consing (a sub-expression written twice is stored once) and constant folding, then
 //! compiled to a flat [`Tape`] that evaluates over any dual number type.
 //!
-//! Architecture invariant: `graph` knows nothing of models, solvers or greenhouses. Its
+//! Architecture invariant: `graph` knows nothing of models, solvers or plants. Its
 //! variables are plain indices; what they mean is the business of the rooms above.
 //!
 //! # Examples

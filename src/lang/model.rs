@@ -165,16 +165,15 @@ impl Layout {
 ///
 /// ```
 /// # fn main() -> Result<(), Box<dyn std::error::Error>> {
-/// let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/lettuce.ghm");
-/// let model = ghm::lang::load(&file).map_err(|e| e.render())?;
+/// let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/cstr.ghm");
+/// let model = ghm::lang::load(&file)?;
 /// let l = model.layout();
-/// assert_eq!((l.nx, l.nu, l.nd), (4, 3, 4));
-/// assert_eq!(model.initial_state()[2], 15.0); // indoor air, °C
-/// assert_eq!(model.start_input(), [0.0, 0.0, 50.0]);
-/// // Disturbances are read from the weather columns they name.
-/// assert_eq!(model.weather_columns()[0], "rad_Wm2");
-/// assert_eq!(model.output_index("temp"), Some(2));
-/// assert_eq!(model.sample_period, 1800.0);
+/// assert_eq!((l.nx, l.nu, l.nd), (2, 1, 0)); // no disturbances: no weather needed
+/// assert_eq!(model.initial_state(), [0.8772569, 324.47544]);
+/// assert_eq!(model.start_input(), [300.0]); // coolant temperature, K
+/// assert!(model.weather_columns().is_empty());
+/// assert_eq!(model.output_index("t_reactor"), Some(1));
+/// assert_eq!(model.sample_period, 6.0);
 /// # Ok(())
 /// # }
 /// ```

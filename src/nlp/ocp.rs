@@ -147,13 +147,12 @@ enum Cached {
 /// use ghm::solve::{kkt_residuals, Solver, Sqp, Start};
 /// use std::sync::Arc;
 ///
-/// let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/lettuce.ghm");
-/// let plant = Arc::new(ghm::model::Plant::new(ghm::lang::load(&file).map_err(|e| e.render()).unwrap()));
-/// let mut ocp = Ocp::new(plant.clone(), 2).unwrap(); // one hour ahead
-/// // Noon in February: radiation, CO₂, temperature and humidity outside, two rows.
-/// let forecast = [150.0, 7e-4, 6.0, 6e-3, 150.0, 7e-4, 6.0, 6e-3];
+/// let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/cstr.ghm");
+/// let plant = Arc::new(ghm::model::Plant::new(ghm::lang::load(&file).unwrap()));
+/// let mut ocp = Ocp::new(plant.clone(), 10).unwrap(); // one minute ahead
+/// // The reactor has no disturbances: the forecast is empty.
 /// let x0 = plant.model.initial_state();
-/// ocp.set_problem(0, &x0, &plant.model.start_input(), &forecast).unwrap();
+/// ocp.set_problem(0, &x0, &plant.model.start_input(), &[]).unwrap();
 /// let mut start = vec![0.0; ocp.n_vars()];
 /// ocp.initial_point(&mut start);
 /// let solution = Sqp::default().solve(&mut ocp, Start::cold(&start));
