@@ -61,7 +61,7 @@ fn season(
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/lettuce.ghm");
-    let plant = Arc::new(Plant::new(ghm::lang::load(&file).map_err(|e| e.render())?));
+    let plant = Arc::new(Plant::new(ghm::lang::load(&file)?));
     let columns = plant.model.weather_columns();
     let weather =
         builtin_season(96 + 6, plant.model.sample_period, 2014).select(&columns, 0, 96 + 6)?;

@@ -15,7 +15,7 @@ use std::sync::Arc;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/lettuce.ghm");
-    let model = ghm::lang::load(&file).map_err(|e| e.render())?;
+    let model = ghm::lang::load(&file)?;
     let plant = Arc::new(Plant::new(model));
 
     let (steps, horizon) = (96, 6); // two days of 30-minute steps, 3 h ahead

@@ -15,7 +15,7 @@ use std::sync::Arc;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let model = ghm::lang::load(&root.join("models/lettuce.ghm")).map_err(|e| e.render())?;
+    let model = ghm::lang::load(&root.join("models/lettuce.ghm"))?;
     let plant = Arc::new(Plant::new(model));
     let agent = root.join("models/agents/lettuce");
     let policy = PolicyFile::load(&agent.join("policy.json"))?;

@@ -15,7 +15,7 @@
 //! use std::sync::Arc;
 //!
 //! let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/lettuce.ghm");
-//! let model = ghm::lang::load(&file).map_err(|e| e.render()).unwrap();
+//! let model = ghm::lang::load(&file).unwrap();
 //! let plant = Arc::new(Plant::new(model));
 //! let (steps, horizon) = (12, 4);
 //! let columns = plant.model.weather_columns();

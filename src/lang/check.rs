@@ -42,8 +42,11 @@ use std::path::{Path, PathBuf};
 /// assert!(message.contains("help: did you mean `heating`?"));
 /// // The unused input is reported too, as a warning.
 /// assert!(message.contains("warning[W001]: input `heating` is never used"));
+/// // As an error (`?` into `Box<dyn Error>`), it shows the same text, Debug included.
+/// assert_eq!(failure.to_string(), message.trim_end());
+/// assert_eq!(format!("{failure:?}"), failure.to_string());
 /// ```
-#[derive(Debug, Clone)]
+#[derive(Clone)]
 pub struct CheckFailure {
     pub sources: SourceMap,
     pub diagnostics: Vec<Diagnostic>,
@@ -54,6 +57,14 @@ pub struct CheckFailure {
 impl std::fmt::Display for CheckFailure {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.render().trim_end())
+    }
+}
+
+/// Debug shows the rendered diagnostics too: `main` returning `Result<(), Box<dyn Error>>`
+/// prints an error with `{:?}`, and a user should see `file:line:column`, not the fields.
+impl std::fmt::Debug for CheckFailure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        std::fmt::Display::fmt(self, f)
     }
 }
 
