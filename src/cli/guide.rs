@@ -3,6 +3,7 @@
 //! beside the model file).
 
 use crate::cli::policy::load_policy;
+use crate::cli::weather_args::WeatherArgs;
 use crate::cli::CliError;
 use crate::control::{Controller, Expert, Policy};
 use crate::model::Plant;
@@ -29,32 +30,47 @@ impl GuideChoice {
     }
 }
 
-/// `models/agents/<stem>/` beside the model file.
-pub fn shipped_dir(model_file: &Path) -> PathBuf {
+/// The agents shipped for `model_file`: `models/agents/<stem>/` beside it, trained on the
+/// Venlo 2014 season; on ghm's built-in weather, its `builtin/` subfolder where one is
+/// shipped. An agent trained on one season has learned that season's weather, and the
+/// built-in season is not Venlo's.
+pub fn shipped_dir(model_file: &Path, weather: &WeatherArgs) -> PathBuf {
     let stem = model_file
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default();
-    model_file
+    let dir = model_file
         .parent()
         .unwrap_or(Path::new("."))
         .join("agents")
-        .join(stem)
+        .join(stem);
+    let builtin = dir.join("builtin");
+    if weather.is_builtin() && builtin.join("policy.json").is_file() {
+        builtin
+    } else {
+        dir
+    }
 }
 
-/// The policy of `--agent`, or the shipped one.
-pub fn resolve_policy(model_file: &Path, agent: Option<&Path>) -> Result<PolicyFile, CliError> {
+/// The policy of `--agent`, or the shipped one (see [`shipped_dir`]).
+pub fn resolve_policy(
+    model_file: &Path,
+    weather: &WeatherArgs,
+    agent: Option<&Path>,
+) -> Result<PolicyFile, CliError> {
     match agent {
         Some(a) => load_policy(a),
         None => {
-            let dir = shipped_dir(model_file);
-            load_policy(&dir).map_err(|_| {
+            let dir = shipped_dir(model_file, weather);
+            let policy = load_policy(&dir).map_err(|_| {
                 CliError::Argument(format!(
                     "no agent shipped for {} (looked in {}); train one with `ghm train` and pass --agent DIR",
                     model_file.display(),
                     dir.display()
                 ))
-            })
+            })?;
+            eprintln!("using the agent shipped in {}", dir.display());
+            Ok(policy)
         }
     }
 }
@@ -67,12 +83,13 @@ pub fn guide_factory(
     plant: &Arc<Plant>,
     choice: GuideChoice,
     model_file: &Path,
+    weather: &WeatherArgs,
     agent: Option<&Path>,
 ) -> Result<GuideFactory, CliError> {
     let fail = |e: crate::control::ControlError| CliError::Argument(e.to_string());
     match choice {
         GuideChoice::Sac => {
-            let file = resolve_policy(model_file, agent)?;
+            let file = resolve_policy(model_file, weather, agent)?;
             let policy = Policy::new(plant, file).map_err(fail)?;
             Ok(Box::new(move || {
                 Box::new(policy.clone()) as Box<dyn Controller + Send>
@@ -84,5 +101,36 @@ pub fn guide_factory(
                 Box::new(expert.clone()) as Box<dyn Controller + Send>
             }))
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn weather(file: Option<&str>) -> WeatherArgs {
+        WeatherArgs {
+            weather: file.map(PathBuf::from),
+            start_row: 0,
+            knmi: None,
+            knmi_co2: 420.0,
+            weather_seed: 2014,
+            days: None,
+            steps: None,
+        }
+    }
+
+    #[test]
+    fn the_built_in_weather_picks_the_builtin_agent_where_one_is_shipped() {
+        let root = std::env::temp_dir().join(format!("ghm-shipped-{}", std::process::id()));
+        let dir = root.join("agents").join("plant");
+        std::fs::create_dir_all(dir.join("builtin")).unwrap();
+        let model = root.join("plant.ghm");
+        // No builtin/policy.json yet: the season's agent for every weather.
+        assert_eq!(shipped_dir(&model, &weather(None)), dir);
+        std::fs::write(dir.join("builtin").join("policy.json"), "{}").unwrap();
+        assert_eq!(shipped_dir(&model, &weather(None)), dir.join("builtin"));
+        assert_eq!(shipped_dir(&model, &weather(Some("venlo.csv"))), dir);
+        std::fs::remove_dir_all(&root).unwrap();
     }
 }

@@ -57,7 +57,7 @@ pub fn run(args: &PolicyArgs) -> Result<(), CliError> {
         let expert = Expert::new(plant.clone()).map_err(|e| CliError::Argument(e.to_string()))?;
         (Box::new(expert), json!({ "agent": "expert" }))
     } else {
-        let file = resolve_policy(&args.file, args.agent.as_deref())?;
+        let file = resolve_policy(&args.file, &args.weather, args.agent.as_deref())?;
         if file.model != plant.model.name {
             eprintln!(
                 "warning: the policy was trained on model `{}`, this is `{}`",

@@ -80,7 +80,9 @@ fn resolve_value(args: &RlmpcArgs) -> Result<ValueFile, CliError> {
     let path = match &args.value {
         Some(p) if p.is_dir() => p.join("value.json"),
         Some(p) => p.clone(),
-        None => shipped_dir(&args.file).join(format!("value-{}.json", args.guide.name())),
+        None => {
+            shipped_dir(&args.file, &args.weather).join(format!("value-{}.json", args.guide.name()))
+        }
     };
     if !path.is_file() {
         return Err(CliError::Argument(format!(
@@ -100,7 +102,13 @@ pub fn run(args: &RlmpcArgs) -> Result<(), CliError> {
     let model = load_model(&args.file)?;
     let plant = Arc::new(Plant::new(model));
     let horizon = parse_horizon(&args.horizon, plant.model.sample_period)?;
-    let make_guide = guide_factory(&plant, args.guide, &args.file, args.agent.as_deref())?;
+    let make_guide = guide_factory(
+        &plant,
+        args.guide,
+        &args.file,
+        &args.weather,
+        args.agent.as_deref(),
+    )?;
     let value = match args.terminal_cost {
         CostForm::None => None,
         _ => Some(resolve_value(args)?),

@@ -75,7 +75,13 @@ pub fn run(args: &ValueArgs) -> Result<(), CliError> {
     };
     let steps = args.weather.steps(&plant.model)?;
     let weather = args.weather.load(&plant.model, steps, 0)?;
-    let make_guide = guide_factory(&plant, args.guide, &args.file, args.agent.as_deref())?;
+    let make_guide = guide_factory(
+        &plant,
+        args.guide,
+        &args.file,
+        &args.weather,
+        args.agent.as_deref(),
+    )?;
     create_dir(&args.out)?;
 
     let started = Instant::now();

@@ -35,6 +35,11 @@ pub struct WeatherArgs {
 }
 
 impl WeatherArgs {
+    /// Whether the season runs on ghm's built-in weather (no `--weather`, no `--knmi`).
+    pub fn is_builtin(&self) -> bool {
+        self.weather.is_none() && self.knmi.is_none()
+    }
+
     /// Number of steps of the season.
     pub fn steps(&self, model: &Model) -> Result<usize, CliError> {
         let per_day = 86400.0 / model.sample_period;
