@@ -22,20 +22,7 @@ for variant in lettuce-thesis lettuce; do
     list+=("$variant-vfo-sac-${h}h|rlmpc models/$variant.ghm --horizon ${h}h --guide sac --variant vfo")
   done
 done
-run_one() {
-  local name=${1%%|*} args=${1#*|}
-  local out=runs/results/$name
-  [ -f "$out/summary.json" ] && return 0
-  rm -rf "$out.tmp"
-  # shellcheck disable=SC2086
-  if /usr/bin/time -f "%e" -o "/tmp/ghm-wall-$name" "$ghm" $args $weather --out "$out.tmp" > "/tmp/ghm-log-$name" 2>&1; then
-    cp "/tmp/ghm-wall-$name" "$out.tmp/wall_s"
-    rm -rf "$out" && mv "$out.tmp" "$out"
-    echo "done $name"
-  else
-    echo "FAILED $name (log: /tmp/ghm-log-$name)"
-  fi
-}
-export -f run_one
-export ghm weather
-printf '%s\n' "${list[@]}" | xargs -P "$jobs" -I{} bash -c 'run_one "$@"' _ {}
+SWEEP_ROOT=runs/results
+# shellcheck source=benches/sweep_lib.sh
+source benches/sweep_lib.sh
+run_all "$jobs" "${list[@]}"

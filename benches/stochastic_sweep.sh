@@ -24,19 +24,7 @@ for s in $seeds; do
     list+=("$variant-rlmpc-${h}h-s$s|rlmpc models/$variant.ghm --horizon ${h}h --uncertainty $delta --seed $s")
   done
 done
-run_one() {
-  local name=${1%%|*} args=${1#*|}
-  local out=runs/stochastic/$name
-  [ -f "$out/summary.json" ] && return 0
-  rm -rf "$out.tmp"
-  # shellcheck disable=SC2086
-  if "$ghm" $args $weather --out "$out.tmp" > "/tmp/ghm-log-$name" 2>&1; then
-    rm -rf "$out" && mv "$out.tmp" "$out"
-    echo "done $name"
-  else
-    echo "FAILED $name (log: /tmp/ghm-log-$name)"
-  fi
-}
-export -f run_one
-export ghm weather
-printf '%s\n' "${list[@]}" | xargs -P "$jobs" -I{} bash -c 'run_one "$@"' _ {}
+SWEEP_ROOT=runs/stochastic
+# shellcheck source=benches/sweep_lib.sh
+source benches/sweep_lib.sh
+run_all "$jobs" "${list[@]}"
