@@ -20,9 +20,13 @@ use thiserror::Error;
 /// What a controller sees at step `k`.
 #[derive(Debug, Clone, Copy)]
 pub struct Observation<'a> {
+    /// The season step `k`, counted from 0.
     pub step: usize,
+    /// The state `x(k)`, in the model's declaration order.
     pub state: &'a [f64],
+    /// The outputs at `x(k)`, evaluated with the previous input and the weather `d(k)`.
     pub outputs: &'a [f64],
+    /// The input applied at step `k − 1`; at step 0, the model's start input.
     pub previous_input: &'a [f64],
     /// Perfect forecast `d(k), d(k+1), …`, row-major, as many rows as the source has left.
     pub forecast: &'a [f64],
@@ -33,6 +37,7 @@ pub struct Observation<'a> {
 pub struct StepRecord {
     /// Wall time spent deciding, in seconds.
     pub solve_time_s: f64,
+    /// Solver iterations, summed over every attempt at this step (0 without a solver).
     pub iterations: usize,
     /// Solver status (empty for controllers without a solver).
     pub status: String,
@@ -47,20 +52,34 @@ pub struct StepRecord {
 /// A controller's answer.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Decision {
+    /// The input to apply at this step, one entry per model input; the simulator clips it
+    /// to the input limits only when it enforces them.
     pub input: Vec<f64>,
+    /// What the controller did to get it.
     pub record: StepRecord,
 }
 
+/// Why a controller could not decide an input.
 #[derive(Debug, Error)]
 pub enum ControlError {
+    /// An [`InputTable`] asked for a step past its last row.
     #[error("the input table has {rows} rows; step {step} needs one more")]
-    TableTooShort { rows: usize, step: usize },
+    TableTooShort {
+        /// Rows in the table.
+        rows: usize,
+        /// The step asked for (0-based).
+        step: usize,
+    },
     /// A value-function file that cannot be read, written or used.
     #[error("{path}: {reason}")]
     ValueFile {
+        /// The file.
         path: std::path::PathBuf,
+        /// What went wrong, in words.
         reason: String,
     },
+    /// Any other failure, described in words: a forecast too short for the controller, a
+    /// model the expert or a policy cannot serve, a problem the OCP rejects.
     #[error("{0}")]
     Other(String),
 }
@@ -125,6 +144,7 @@ pub enum ControlError {
 pub trait Controller {
     /// A short name for reports.
     fn name(&self) -> String;
+    /// The input for the step `observation` describes, and a record of how it was found.
     fn decide(&mut self, observation: &Observation) -> Result<Decision, ControlError>;
 }
 

@@ -99,10 +99,16 @@ impl Mpc {
         self
     }
 
+    /// The optimal-control problem solved at every step; it holds the problem of the last
+    /// step decided.
     pub fn ocp(&self) -> &Ocp {
         &self.ocp
     }
 
+    /// The optimal-control problem, to change its settings between steps (the parameters
+    /// it predicts with, for one); the next [`decide`](Controller::decide) sets the step,
+    /// state, previous input and forecast again, and a [`Guidance`] its terminal cost and
+    /// region.
     pub fn ocp_mut(&mut self) -> &mut Ocp {
         &mut self.ocp
     }

@@ -94,6 +94,7 @@ impl Policy {
         })
     }
 
+    /// The policy file it runs (actor network and observation statistics).
     pub fn file(&self) -> &PolicyFile {
         &self.policy
     }

@@ -39,6 +39,7 @@ pub enum TerminalCostForm {
 pub struct RlMpcOptions {
     /// Relative half-width of the terminal region; `None` drops the region (VFO).
     pub epsilon: Option<f64>,
+    /// How `−V` enters the terminal cost: exact or its first-order expansion.
     pub terminal_cost: TerminalCostForm,
 }
 

@@ -56,11 +56,13 @@ pub struct ValueFile {
     pub guide: String,
     /// The state component it reads, by index and name.
     pub state_index: usize,
+    /// The name of state `state_index` in the model it was fitted on, for reports.
     pub state_name: String,
     /// Inputs `(x_i, k)`, outputs the return-to-go.
     pub function: ScaledMlp,
     /// Final mean squared errors of the fit (return units squared).
     pub train_loss: f64,
+    /// The same on the held-out validation set.
     pub validation_loss: f64,
 }
 
@@ -71,6 +73,7 @@ impl ValueFile {
             .evaluate(&[state[self.state_index], step as f64])
     }
 
+    /// Writes it as JSON to `path`, replacing any file there.
     pub fn save(&self, path: &Path) -> Result<(), ControlError> {
         let fail = |reason: String| ControlError::ValueFile {
             path: path.to_path_buf(),
@@ -80,6 +83,8 @@ impl ValueFile {
         std::fs::write(path, text).map_err(|e| fail(format!("cannot write: {e}")))
     }
 
+    /// Reads a file written by [`save`](Self::save), checking that the network is valid and
+    /// takes the two inputs `(x_i, k)`.
     pub fn load(path: &Path) -> Result<ValueFile, ControlError> {
         let fail = |reason: String| ControlError::ValueFile {
             path: path.to_path_buf(),
@@ -153,10 +158,12 @@ pub struct ValueTerminalCost {
 }
 
 impl ValueTerminalCost {
+    /// The terminal cost `−V` of `value`, with nothing computed yet.
     pub fn new(value: ValueFile) -> ValueTerminalCost {
         ValueTerminalCost { value, last: None }
     }
 
+    /// The value function it is the negative of.
     pub fn value(&self) -> &ValueFile {
         &self.value
     }
