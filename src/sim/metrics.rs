@@ -8,19 +8,30 @@ use serde::Serialize;
 /// One soft band's totals over a season.
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct BandMetrics {
+    /// The name of the output the band bounds.
     pub output: String,
+    /// The band's penalties summed over the season, in the model's units of money.
     pub penalty: f64,
+    /// Hours in which the output after the step lay outside the band: one sample period
+    /// per such step.
     pub hours_outside: f64,
 }
 
 /// Solve-time statistics of a controller over a season.
 #[derive(Debug, Clone, Serialize, PartialEq, Default)]
 pub struct SolveStats {
+    /// Median time per step to decide, in milliseconds.
     pub median_ms: f64,
+    /// 95th percentile of the time per step, in milliseconds.
     pub p95_ms: f64,
+    /// Longest time per step, in milliseconds.
     pub max_ms: f64,
+    /// Solver iterations per step, averaged over the season.
     pub mean_iterations: f64,
+    /// Steps whose final solver status was neither `optimal` nor `acceptable` (see
+    /// [`status_is_success`]).
     pub failed_solves: usize,
+    /// Steps whose input came from a fallback rather than the first solve.
     pub fallbacks: usize,
 }
 
@@ -78,14 +89,18 @@ pub struct SolveStats {
 /// ```
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct Metrics {
+    /// Steps run.
     pub steps: usize,
     /// Economic performance indicator: Σ economic stage terms, in the model's units of
     /// money (€ m⁻² for the greenhouse).
     pub epi: f64,
+    /// Σ soft-band penalties over the season and all bands.
     pub total_penalty: f64,
     /// EPI − Σ penalties.
     pub cumulative_reward: f64,
+    /// One entry per soft band, in the model's order.
     pub bands: Vec<BandMetrics>,
+    /// The controller's solve times and failures.
     pub solve: SolveStats,
 }
 
@@ -117,6 +132,7 @@ fn percentile(sorted: &[f64], q: f64) -> f64 {
 }
 
 impl MetricsBuilder {
+    /// An empty accumulator for a season of `plant`.
     pub fn new(plant: &Plant) -> MetricsBuilder {
         let m = &plant.model;
         MetricsBuilder {
@@ -136,6 +152,8 @@ impl MetricsBuilder {
         }
     }
 
+    /// Adds one step: its economic reward, one penalty per soft band, the outputs after
+    /// the step (to count hours outside the bands) and the controller's record.
     pub fn add(
         &mut self,
         economic: f64,
@@ -163,6 +181,7 @@ impl MetricsBuilder {
         }
     }
 
+    /// The season's metrics, from the steps added.
     pub fn finish(mut self) -> Metrics {
         let total_penalty: f64 = self.bands.iter().map(|b| b.1).sum();
         self.times_ms.sort_by(f64::total_cmp);

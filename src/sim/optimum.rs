@@ -10,19 +10,32 @@ use crate::solve::{Solution, Solver, Start};
 use std::sync::Arc;
 use thiserror::Error;
 
+/// Why the season optimum could not be set up.
 #[derive(Debug, Error)]
 pub enum OptimumError {
+    /// The season-long OCP could not be built or given its problem.
     #[error(transparent)]
     Problem(#[from] OcpError),
+    /// The weather has fewer rows than the season has steps.
     #[error("the weather has {available} steps; the season needs {needed}")]
-    WeatherTooShort { available: usize, needed: usize },
+    WeatherTooShort {
+        /// Rows in the weather.
+        available: usize,
+        /// Steps in the season.
+        needed: usize,
+    },
+    /// `initial_inputs` is not `steps × nu` long.
     #[error(
         "the initial inputs have {given} values; {steps} steps of {nu} inputs need {expected}"
     )]
     Inputs {
+        /// Values given.
         given: usize,
+        /// Steps in the season.
         steps: usize,
+        /// Inputs of the model.
         nu: usize,
+        /// `steps × nu`.
         expected: usize,
     },
 }
@@ -30,7 +43,9 @@ pub enum OptimumError {
 /// The optimum and the input sequence it applies (`steps × nu`, row-major).
 #[derive(Debug, Clone)]
 pub struct SeasonOptimum {
+    /// The solver's result for the season-long NLP; check its status before trusting it.
     pub solution: Solution,
+    /// The optimal inputs, one row of `nu` values per step.
     pub inputs: Vec<Vec<f64>>,
 }
 

@@ -11,21 +11,51 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use thiserror::Error;
 
+/// Why a season stopped.
 #[derive(Debug, Error)]
 pub enum SimError {
+    /// The weather has fewer rows than the season has steps; checked before the first step.
     #[error("the weather has {available} steps; the season needs {needed}")]
-    WeatherTooShort { available: usize, needed: usize },
+    WeatherTooShort {
+        /// Rows in the weather.
+        available: usize,
+        /// Steps in the season.
+        needed: usize,
+    },
+    /// The weather's columns do not match the model's disturbances; checked before the
+    /// first step.
     #[error("the weather provides {given} disturbances; the model has {expected}")]
-    WeatherWidth { given: usize, expected: usize },
+    WeatherWidth {
+        /// Columns in the weather.
+        given: usize,
+        /// Disturbances of the model.
+        expected: usize,
+    },
+    /// The controller's input has the wrong length.
     #[error("the controller returned {given} inputs; the model has {expected}")]
-    InputWidth { given: usize, expected: usize },
+    InputWidth {
+        /// Entries in the controller's input.
+        given: usize,
+        /// Inputs of the model.
+        expected: usize,
+    },
+    /// The controller returned an error.
     #[error("controller failed at step {step}: {source}")]
     Controller {
+        /// The step it failed at (0-based).
         step: usize,
+        /// Its error.
         source: crate::control::ControlError,
     },
+    /// The plant's next state has a NaN or infinite entry.
     #[error("the state is not finite after step {step}: {state:?}")]
-    Diverged { step: usize, state: Vec<f64> },
+    Diverged {
+        /// The step that produced it (0-based).
+        step: usize,
+        /// The non-finite next state.
+        state: Vec<f64>,
+    },
+    /// The [`StepSink`] failed; holds its message.
     #[error("writing the results failed: {0}")]
     Sink(String),
 }
@@ -76,34 +106,50 @@ pub enum SimError {
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct UncertaintyDraw {
+    /// Relative half-width δ: an uncertain parameter `p` is drawn uniformly from
+    /// `p · (1 ± spread · δ)`, with the model's `spread`; 0 draws nothing.
     pub delta: f64,
+    /// Seed of the season's random stream; the same seed draws the same parameters.
     pub seed: u64,
 }
 
 /// How a season is run.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SeasonConfig {
+    /// Steps to run; the weather must have at least as many rows.
     pub steps: usize,
     /// Clip the controller's input to the bounds and rate limits.
     pub enforce_limits: bool,
+    /// Parametric uncertainty of the plant; `None` runs it with nominal parameters.
+    /// Parameters are drawn once per season, or at every step when the model says
+    /// `redraw = step`.
     pub uncertainty: Option<UncertaintyDraw>,
 }
 
 /// Everything about one step, as logged.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StepLog {
+    /// The step `k`, from 0.
     pub step: usize,
+    /// The state `x(k)` before the step.
     pub state: Vec<f64>,
+    /// The outputs the controller observed: at `x(k)` with the previous input.
     pub outputs: Vec<f64>,
+    /// The input applied, after clipping when the limits are enforced.
     pub input: Vec<f64>,
+    /// The weather row `d(k)`.
     pub disturbance: Vec<f64>,
     /// Stage terms of the step (rewards positive, costs negative).
     pub terms: Vec<f64>,
+    /// The sum of `terms`.
     pub economic: f64,
     /// One penalty per soft band.
     pub penalties: Vec<f64>,
+    /// `economic` minus the sum of `penalties`.
     pub reward: f64,
+    /// `reward` summed over the season so far, this step included.
     pub cumulative_reward: f64,
+    /// What the controller reported for this step.
     pub record: StepRecord,
 }
 
@@ -158,6 +204,7 @@ pub struct StepLog {
 /// # }
 /// ```
 pub trait StepSink {
+    /// Takes one step's log; an `Err` stops the season with [`SimError::Sink`].
     fn step(&mut self, log: &StepLog) -> Result<(), String>;
 }
 
@@ -171,7 +218,9 @@ impl<F: FnMut(&StepLog)> StepSink for F {
 /// The result of a season.
 #[derive(Debug, Clone)]
 pub struct SeasonResult {
+    /// The season's figures.
     pub metrics: Metrics,
+    /// The state after the last step.
     pub final_state: Vec<f64>,
 }
 

@@ -63,9 +63,12 @@ type Rollout = Option<(Vec<f64>, Vec<f64>)>;
 /// Settings of the value data.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ValueDataConfig {
+    /// Roll-outs to sample, each from a random step of the nominal run to the season's end.
     pub trajectories: usize,
     /// Relative spread σ of the start states around the nominal ones.
     pub spread: f64,
+    /// Base seed; roll-out `i` draws from its own stream derived from it, so the data do
+    /// not depend on the number of threads.
     pub seed: u64,
     /// The state component the value function reads.
     pub state_index: usize,
@@ -74,9 +77,13 @@ pub struct ValueDataConfig {
 /// The points: `features` holds `(x_i(j), j)` pairs, `returns` the returns-to-go.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct ValueData {
+    /// `(x_i(j), j)` pairs, flattened: two entries per point.
     pub features: Vec<f64>,
+    /// The return-to-go from each point to the season's end, one per point.
     pub returns: Vec<f64>,
+    /// Roll-outs kept.
     pub trajectories: usize,
+    /// Roll-outs dropped because their state diverged.
     pub dropped: usize,
 }
 

@@ -68,65 +68,99 @@ pub enum WeatherError {
     /// The file could not be opened or read.
     #[error("{}: cannot read the weather file: {source}; check the path and permissions", path.display())]
     Io {
+        /// The file.
         path: PathBuf,
+        /// The I/O error.
         source: std::io::Error,
     },
     /// The CSV structure itself is broken (ragged rows, bad UTF-8, ...); `source` names the line.
     #[error("{}: malformed CSV: {source}; every row must have as many cells as the header", path.display())]
-    Csv { path: PathBuf, source: csv::Error },
+    Csv {
+        /// The file.
+        path: PathBuf,
+        /// The CSV reader's error.
+        source: csv::Error,
+    },
     /// A needed column is not in the file (or frame); `available` lists those that are.
     #[error("{}: no column `{column}` (available: {}); fix the column name or use a file that has it", path.display(), available.join(", "))]
     MissingColumn {
+        /// The file or frame source.
         path: PathBuf,
+        /// The column asked for.
         column: String,
+        /// The columns there are, in file order.
         available: Vec<String>,
     },
     /// A cell that must hold a number holds `text` instead.
     #[error("{}: line {row}, column `{column}`: {} is not a number; fix or remove that row", path.display(), if text.is_empty() { "an empty cell".into() } else { format!("`{text}`") })]
     NotNumeric {
+        /// The file.
         path: PathBuf,
+        /// 1-based line number.
         row: u64,
+        /// The column.
         column: String,
+        /// The cell's text (empty for an empty cell).
         text: String,
     },
     /// A cell holds NaN or an infinity.
     #[error("{}: line {row}, column `{column}`: value is NaN or infinite; replace it with a measured value", path.display())]
     NotFinite {
+        /// The file or frame source.
         path: PathBuf,
+        /// 1-based line number.
         row: u64,
+        /// The column.
         column: String,
     },
     /// The time axis is not evenly spaced: the step ending at line `row` differs from the first step.
     #[error("{}: line {row}: time step is {found_step_s} s but {expected_step_s} s was expected; the time axis must be evenly spaced and increasing, so resample the file or remove the gap", path.display())]
     Gap {
+        /// The file.
         path: PathBuf,
+        /// 1-based line number of the row ending the uneven step.
         row: u64,
+        /// The first time step, in seconds.
         expected_step_s: f64,
+        /// The uneven time step, in seconds.
         found_step_s: f64,
     },
     /// `needed` rows are needed but the source (file or generator) has only `available`.
     /// (`r#source` keeps thiserror from taking this name for an underlying error.)
     #[error("{source}: {needed} rows needed but only {available} available; use a longer record, an earlier start or fewer steps")]
     TooShort {
+        /// The source, in words (the file, or the frame's description of where it came
+        /// from).
         r#source: String,
+        /// Rows it has in all.
         available: usize,
+        /// Rows needed: the first row asked for plus the steps.
         needed: usize,
     },
     /// No KNMI header line (`# STN,YYYYMMDD,   HH, ...`) was found.
     #[error("{}: no KNMI header line `STN,YYYYMMDD,HH,...` found; download the hourly data (uurgegevens) as text from KNMI", path.display())]
-    KnmiNoHeader { path: PathBuf },
+    KnmiNoHeader {
+        /// The file.
+        path: PathBuf,
+    },
     /// A KNMI line does not have the expected layout; `message` says how.
     #[error("{}: line {row}: {message}; the file must be KNMI hourly data (uurgegevens) for one station", path.display())]
     KnmiFormat {
+        /// The file.
         path: PathBuf,
+        /// 1-based line number.
         row: u64,
+        /// What is wrong with the line.
         message: String,
     },
     /// A needed KNMI observation is empty (missing); values are never filled silently.
     #[error("{}: line {row}, column `{column}` is empty (missing observation); pick a period without missing data or fill it yourself", path.display())]
     KnmiMissing {
+        /// The file.
         path: PathBuf,
+        /// 1-based line number.
         row: u64,
+        /// The KNMI column that is empty.
         column: String,
     },
     /// An argument given by the caller is invalid.
