@@ -28,14 +28,20 @@ use thiserror::Error;
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Ex(NodeId);
 
+/// Why [`ModelBuilder::build`] refused the model.
 #[derive(Debug, Clone, Error, PartialEq)]
 pub enum BuildError {
+    /// A state (named) was never given `der`.
     #[error("state `{0}` has no derivative: call `der` for it")]
     MissingDerivative(String),
+    /// `sample` was never called, or with a period that is not positive.
     #[error("the sample period must be positive (call `sample`)")]
     NoSamplePeriod,
+    /// `der` or `next` was given an expression that is not a state variable; holds the
+    /// expression's debug form.
     #[error("`{0}` is not a state")]
     NotAState(String),
+    /// Two variables (states, inputs, disturbances, parameters) share the name held.
     #[error("`{0}` is declared twice")]
     Duplicate(String),
 }
@@ -79,6 +85,8 @@ fn info(name: &str) -> Info {
 }
 
 impl ModelBuilder {
+    /// An empty model named `name`, integrated with RK4 in one sub-step until told
+    /// otherwise; the sample period must still be set with [`sample`](Self::sample).
     pub fn new(name: &str) -> ModelBuilder {
         ModelBuilder {
             name: name.to_string(),
@@ -284,24 +292,31 @@ impl ModelBuilder {
         self.integrator = Integrator::Euler;
     }
 
+    /// The number `v`.
     pub fn constant(&mut self, v: f64) -> Ex {
         Ex(self.graph.constant(v))
     }
+    /// `a + b`.
     pub fn add(&mut self, a: Ex, b: Ex) -> Ex {
         Ex(self.graph.add(a.0, b.0))
     }
+    /// `a − b`.
     pub fn sub(&mut self, a: Ex, b: Ex) -> Ex {
         Ex(self.graph.sub(a.0, b.0))
     }
+    /// `a · b`.
     pub fn mul(&mut self, a: Ex, b: Ex) -> Ex {
         Ex(self.graph.mul(a.0, b.0))
     }
+    /// `a / b`.
     pub fn div(&mut self, a: Ex, b: Ex) -> Ex {
         Ex(self.graph.div(a.0, b.0))
     }
+    /// `−a`.
     pub fn neg(&mut self, a: Ex) -> Ex {
         Ex(self.graph.neg(a.0))
     }
+    /// `a` to the power `b` ([`Op::Pow`]).
     pub fn pow(&mut self, a: Ex, b: Ex) -> Ex {
         Ex(self.graph.apply(Op::Pow, &[a.0, b.0]))
     }

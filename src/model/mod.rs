@@ -149,7 +149,9 @@ pub fn discretize(graph: &mut Graph, model: &Model) -> Vec<NodeId> {
 /// ```
 #[derive(Debug, Clone)]
 pub struct Plant {
+    /// The model it was built from.
     pub model: Model,
+    /// The model's variable layout: where `x`, `u`, `d`, `p` sit in the graph's variables.
     pub layout: Layout,
     /// The graph holding every expression below (the model's graph, extended).
     pub graph: Graph,
@@ -168,9 +170,11 @@ pub struct Plant {
 /// One step's results (empty buffers by default, filled by [`Plant::step_into`]).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct StepOutcome {
+    /// The state after the step, `x⁺`.
     pub next_state: Vec<f64>,
     /// Each stage term's reward contribution (costs negative), in `Plant::stage_term_index` order.
     pub terms: Vec<f64>,
+    /// The outputs at `x⁺` (with the step's input and disturbance).
     pub next_outputs: Vec<f64>,
 }
 
@@ -191,6 +195,7 @@ pub struct StepWorkspace {
 }
 
 impl Plant {
+    /// Discretises `model` with its integrator and compiles the step and output tapes.
     pub fn new(model: Model) -> Plant {
         let layout = model.layout();
         let mut graph = model.graph.clone();
@@ -243,6 +248,8 @@ impl Plant {
         &self.output
     }
 
+    /// Fresh buffers for [`step_into`](Self::step_into) and
+    /// [`outputs_into`](Self::outputs_into); keep one per thread and reuse it.
     pub fn workspace(&self) -> StepWorkspace {
         StepWorkspace {
             ws: self.step.workspace(),

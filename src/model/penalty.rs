@@ -7,6 +7,7 @@ use crate::lang::model::SoftBand;
 pub struct StagePenalty {
     /// Index of the penalised output.
     pub output: usize,
+    /// The penalty, in the model's units of money; 0 inside the band.
     pub value: f64,
     /// Whether the output is outside the band.
     pub outside: bool,

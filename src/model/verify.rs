@@ -8,12 +8,18 @@ use crate::model::Plant;
 /// The largest relative errors found.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct VerifyReport {
+    /// Base points checked.
     pub points: usize,
+    /// Largest relative error of a step-Jacobian entry (w.r.t. `x` and `u`) against central
+    /// differences, over all points.
     pub jacobian_max_rel_error: f64,
+    /// Largest relative error of a Hessian entry of the weighted step outputs against
+    /// central differences of the exact gradient, over all points.
     pub hessian_max_rel_error: f64,
 }
 
 impl VerifyReport {
+    /// The larger of the two errors.
     pub fn max(&self) -> f64 {
         self.jacobian_max_rel_error.max(self.hessian_max_rel_error)
     }
