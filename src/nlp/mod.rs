@@ -23,20 +23,25 @@ use std::ops::Range;
 /// The fixed sparsity pattern of a sparse matrix, as coordinate pairs.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct Pattern {
+    /// Row index of each entry, 0-based.
     pub rows: Vec<usize>,
+    /// Column index of each entry, 0-based, in the same order as `rows`.
     pub cols: Vec<usize>,
 }
 
 impl Pattern {
+    /// Appends the entry `(row, col)`; its value comes next in the value vector.
     pub fn push(&mut self, row: usize, col: usize) {
         self.rows.push(row);
         self.cols.push(col);
     }
 
+    /// The number of entries (of values a matching value vector holds).
     pub fn len(&self) -> usize {
         self.rows.len()
     }
 
+    /// Whether it has no entries.
     pub fn is_empty(&self) -> bool {
         self.rows.is_empty()
     }
@@ -117,7 +122,9 @@ pub fn ranges_into(lower: &[f64], upper: &[f64], scale: &mut [f64]) {
 /// assert!((solution.stats.objective - 2.0).abs() < 1e-6);
 /// ```
 pub trait Nlp {
+    /// The number of variables `x`.
     fn n_vars(&self) -> usize;
+    /// The number of constraints `g(x)`, equalities included.
     fn n_cons(&self) -> usize;
     /// Variable bounds `x_l, x_u`.
     fn var_bounds(&self, lower: &mut [f64], upper: &mut [f64]);
@@ -137,12 +144,16 @@ pub trait Nlp {
         ranges_into(&lower, &upper, scale);
     }
 
+    /// `f(x)`.
     fn objective(&mut self, x: &[f64]) -> f64;
+    /// `∇f(x)`, one entry per variable.
     fn gradient(&mut self, x: &[f64], gradient: &mut [f64]);
+    /// `g(x)`, one entry per constraint.
     fn constraints(&mut self, x: &[f64], g: &mut [f64]);
 
     /// Pattern of the constraint Jacobian `∂g/∂x` (`n_cons × n_vars`).
     fn jacobian_pattern(&self) -> &Pattern;
+    /// Values of `∂g/∂x` at `x` on [`Nlp::jacobian_pattern`], in its order.
     fn jacobian_values(&mut self, x: &[f64], values: &mut [f64]);
 
     /// Pattern of the lower triangle of `∇²L` (`n_vars × n_vars`).

@@ -27,14 +27,20 @@ use std::ops::Range;
 use std::sync::Arc;
 use thiserror::Error;
 
+/// Why an [`Ocp`] could not be built or given its data.
 #[derive(Debug, Error, PartialEq)]
 pub enum OcpError {
+    /// A horizon of 0 steps was asked for.
     #[error("the horizon must be at least one step")]
     ZeroHorizon,
+    /// A vector passed to the problem has the wrong length.
     #[error("{what} has {given} values; the problem needs {expected}")]
     Dimension {
+        /// Which vector, in words (`the state`, `the forecast`, ...).
         what: &'static str,
+        /// Its length.
         given: usize,
+        /// The length needed.
         expected: usize,
     },
 }
@@ -42,8 +48,11 @@ pub enum OcpError {
 /// Where each variable and constraint of an [`Ocp`] lives.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct OcpLayout {
+    /// Steps `N` of the horizon.
     pub horizon: usize,
+    /// States per stage.
     pub nx: usize,
+    /// Inputs per stage.
     pub nu: usize,
     /// Slacks per stage (one per soft band side).
     pub ns: usize,
@@ -75,6 +84,7 @@ impl OcpLayout {
         self.u(j) + self.nu
     }
 
+    /// Variables in all: every stage's block and `x_N`.
     pub fn n_vars(&self) -> usize {
         self.block_start(self.horizon) + self.nx
     }
@@ -88,6 +98,7 @@ impl OcpLayout {
         }
     }
 
+    /// First soft-band row of stage `j`, right after its dynamics rows.
     pub fn soft_row(&self, j: usize) -> usize {
         self.dynamics_row(j) + self.nx
     }
@@ -97,6 +108,7 @@ impl OcpLayout {
         self.soft_row(j) + self.ns
     }
 
+    /// Constraint rows in all (stage 0 has no rate rows).
     pub fn n_cons(&self) -> usize {
         self.dynamics_row(self.horizon)
     }
@@ -278,14 +290,17 @@ impl Ocp {
         Ok(ocp)
     }
 
+    /// Where each variable and constraint lives.
     pub fn layout(&self) -> &OcpLayout {
         &self.layout
     }
 
+    /// The plant whose step the dynamics constraints use.
     pub fn plant(&self) -> &Arc<Plant> {
         &self.plant
     }
 
+    /// Steps `N` of the horizon.
     pub fn horizon(&self) -> usize {
         self.layout.horizon
     }
@@ -295,10 +310,12 @@ impl Ocp {
         self.step
     }
 
+    /// The measured state `x(k)` the problem starts from (`x_0`), as last set.
     pub fn state(&self) -> &[f64] {
         &self.state
     }
 
+    /// The input applied at `k − 1`, which the first rate limit is taken against.
     pub fn previous_input(&self) -> &[f64] {
         &self.previous_input
     }
@@ -349,6 +366,8 @@ impl Ocp {
         }
     }
 
+    /// Sets or removes the terminal box on `x_N` and `u_{N−1}`; it takes effect in
+    /// [`Nlp::var_bounds`] and leaves the variable scales alone.
     pub fn set_terminal_box(&mut self, terminal_box: Option<TerminalBox>) {
         self.terminal_box = terminal_box;
     }

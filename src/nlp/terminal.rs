@@ -21,8 +21,11 @@ pub trait TerminalCost: Debug + Send {
 /// around a reference terminal state.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LinearTerminalCost {
+    /// `T` at the anchor.
     pub value: f64,
+    /// `∂T/∂x` at the anchor, one entry per state.
     pub gradient: Vec<f64>,
+    /// The state the expansion is taken around.
     pub anchor: Vec<f64>,
 }
 
@@ -49,8 +52,12 @@ impl TerminalCost for LinearTerminalCost {
 /// Bounds on the last predicted state `x_N` and the last input `u_{N−1}`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TerminalBox {
+    /// Lower bounds of `x_N`, one per state; they replace the state's own bounds.
     pub state_lower: Vec<f64>,
+    /// Upper bounds of `x_N`, one per state; they replace the state's own bounds.
     pub state_upper: Vec<f64>,
+    /// Lower bounds of `u_{N−1}`, one per input, intersected with the input's own bounds.
     pub input_lower: Vec<f64>,
+    /// Upper bounds of `u_{N−1}`, one per input, intersected with the input's own bounds.
     pub input_upper: Vec<f64>,
 }
