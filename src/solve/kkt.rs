@@ -21,6 +21,8 @@ pub struct KktResiduals {
 }
 
 impl KktResiduals {
+    /// The largest of stationarity, primal and complementarity (not the scaled
+    /// stationarity): the figure compared with a solver's tolerances.
     pub fn max(&self) -> f64 {
         self.stationarity.max(self.primal).max(self.complementarity)
     }

@@ -38,6 +38,7 @@ pub enum SolveStatus {
     Optimal,
     /// KKT conditions hold to the looser, acceptable tolerance.
     Acceptable,
+    /// The iteration limit was reached first.
     MaxIterations,
     /// The (linearised) constraints could not be satisfied.
     Infeasible,
@@ -53,6 +54,7 @@ impl SolveStatus {
         matches!(self, SolveStatus::Optimal | SolveStatus::Acceptable)
     }
 
+    /// The snake-case name used in logs and JSON (`optimal`, `max_iterations`, ...).
     pub fn as_str(self) -> &'static str {
         match self {
             SolveStatus::Optimal => "optimal",
@@ -74,29 +76,39 @@ impl fmt::Display for SolveStatus {
 /// What a solve cost and how well it converged.
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct SolveStats {
+    /// Iterations taken (0 when the start already satisfied the tolerance).
     pub iterations: usize,
+    /// Wall time of the solve, in seconds.
     pub time_s: f64,
+    /// `f(x)` at the returned point (NaN when the problem could not be evaluated).
     pub objective: f64,
+    /// KKT residuals at the returned point.
     pub kkt: KktResiduals,
 }
 
 /// A primal-dual point and how it was reached.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Solution {
+    /// How the solve ended; apply `x` only on [`SolveStatus::is_success`].
     pub status: SolveStatus,
+    /// The primal point reached, one entry per variable.
     pub x: Vec<f64>,
     /// Constraint multipliers `λ` (signed, see the module doc).
     pub multipliers: Vec<f64>,
     /// Bound multipliers `ν` (signed, see the module doc).
     pub bound_multipliers: Vec<f64>,
+    /// Iterations, time, objective and residuals.
     pub stats: SolveStats,
 }
 
 /// Where a solve starts: a primal point and, if known, multipliers from an earlier solve.
 #[derive(Debug, Clone, Copy)]
 pub struct Start<'a> {
+    /// The primal point, one entry per variable (projected onto the bounds by SQP).
     pub x: &'a [f64],
+    /// Constraint multipliers `λ`; `None` starts them at zero.
     pub multipliers: Option<&'a [f64]>,
+    /// Bound multipliers `ν`; `None` starts them at zero.
     pub bound_multipliers: Option<&'a [f64]>,
 }
 
@@ -122,6 +134,7 @@ impl<'a> Start<'a> {
 
 /// A back-end that solves an [`Nlp`].
 pub trait Solver {
+    /// A short name for reports (`sqp`, `ipopt`).
     fn name(&self) -> &'static str;
     /// Solves from `start`. Never panics on a bad problem; the status tells.
     fn solve(&mut self, nlp: &mut dyn Nlp, start: Start<'_>) -> Solution;

@@ -41,6 +41,9 @@ use std::time::Instant;
 /// Tuning of [`Sqp`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct SqpOptions {
+    /// Iteration limit of a solve; reaching it ends the solve as
+    /// [`SolveStatus::Acceptable`] below `acceptable_tolerance`, else as
+    /// [`SolveStatus::MaxIterations`].
     pub max_iterations: usize,
     /// KKT residual (infinity norm of stationarity, feasibility, complementarity) at which
     /// the solve is optimal.
@@ -53,6 +56,7 @@ pub struct SqpOptions {
     /// has not moved (relative 1e-10) for `acceptable_iterations` iterations, with a KKT
     /// residual below 1e-3, is acceptable too: its multipliers are degenerate.
     pub acceptable_tolerance: f64,
+    /// The run of iterations `acceptable_tolerance` asks for.
     pub acceptable_iterations: usize,
     /// Levenberg–Marquardt term: `ρ / D²` is added to the Hessian's diagonal, `D` the
     /// variable's range (see [`super::KktResiduals::stationarity`]).
@@ -109,6 +113,7 @@ impl Curvature {
 
 /// The pure-Rust SQP back-end.
 pub struct Sqp {
+    /// Its tuning; may be changed between solves.
     pub options: SqpOptions,
     /// A temporary cap on the iterations, below `options.max_iterations`.
     iteration_limit: Option<usize>,
@@ -149,6 +154,8 @@ impl Default for Sqp {
 }
 
 impl Sqp {
+    /// An SQP solver with `options`; its QP solver and buffers are set up on the first
+    /// solve.
     pub fn new(options: SqpOptions) -> Sqp {
         Sqp {
             options,
