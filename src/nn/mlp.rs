@@ -33,8 +33,11 @@ use std::path::Path;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Activation {
+    /// `x`.
     Identity,
+    /// `max(x, 0)`, with derivative 0 at 0.
     Relu,
+    /// `tanh(x)`.
     Tanh,
 }
 
@@ -90,9 +93,13 @@ impl Activation {
 /// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Dense {
+    /// Inputs of the layer.
     pub inputs: usize,
+    /// Outputs of the layer.
     pub outputs: usize,
+    /// `outputs × inputs` weights, row-major: row `o` holds the weights into output `o`.
     pub weight: Vec<f64>,
+    /// One bias per output.
     pub bias: Vec<f64>,
 }
 
@@ -171,14 +178,17 @@ impl Mlp {
         Ok(())
     }
 
+    /// Its layers, input side first.
     pub fn layers(&self) -> &[Dense] {
         &self.layers
     }
 
+    /// The activation after every layer but the last.
     pub fn hidden_activation(&self) -> Activation {
         self.hidden
     }
 
+    /// The activation after the last layer.
     pub fn output_activation(&self) -> Activation {
         self.output
     }

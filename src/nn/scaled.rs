@@ -23,10 +23,15 @@ pub const INPUT_HALF_RANGE: f64 = 5.0;
 /// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ScaledMlp {
+    /// The network, in normalised units on both sides.
     pub net: Mlp,
+    /// Raw input values mapped to `−5`, one per input.
     pub input_lower: Vec<f64>,
+    /// Raw input values mapped to `+5`, one per input; each above its lower value.
     pub input_upper: Vec<f64>,
+    /// Added to the scaled network output: `y = offset + scale · net(z)`.
     pub output_offset: f64,
+    /// Multiplies the network output: `y = offset + scale · net(z)`.
     pub output_scale: f64,
 }
 
