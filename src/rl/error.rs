@@ -4,56 +4,141 @@
 use thiserror::Error;
 
 /// What can go wrong building or driving an [`Env`](crate::rl::Env) or a
-/// [`Normalizer`](crate::rl::Normalizer).
+/// [`Normalizer`](crate::rl::Normalizer), and also in the replay buffer, SAC training,
+/// checkpoints, policy files and the value fit.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum RlError {
+    /// An environment was asked for episodes of 0 steps.
     #[error("an episode needs at least one step")]
     EmptyEpisode,
+    /// The weather has fewer rows than an episode has steps.
     #[error("the weather has {available} steps; the episode needs {needed}")]
-    WeatherTooShort { available: usize, needed: usize },
+    WeatherTooShort {
+        /// Rows in the weather.
+        available: usize,
+        /// Steps in an episode.
+        needed: usize,
+    },
+    /// The weather's columns do not match the model's disturbances.
     #[error("the weather provides {given} disturbances; the model has {expected}")]
-    WeatherWidth { given: usize, expected: usize },
+    WeatherWidth {
+        /// Columns in the weather.
+        given: usize,
+        /// Disturbances of the model.
+        expected: usize,
+    },
+    /// An input's bounds are NaN or reversed, so actions cannot be clipped to them.
     #[error("input `{input}` has bounds [{lower}, {upper}] that do not form an interval")]
     InputBounds {
+        /// The input's name.
         input: String,
+        /// Its lower bound.
         lower: f64,
+        /// Its upper bound.
         upper: f64,
     },
+    /// An input has neither a rate limit nor finite bounds, so an action of ±1 means no
+    /// finite change.
     #[error(
         "input `{input}` has no finite action scale: give it a rate limit or finite bounds \
          (scale {scale})"
     )]
-    UnboundedInput { input: String, scale: f64 },
+    UnboundedInput {
+        /// The input's name.
+        input: String,
+        /// The scale found: its rate limit, else `upper − lower`.
+        scale: f64,
+    },
+    /// The uncertainty δ given to an environment is negative, NaN or infinite, or too large
+    /// for the model's spread.
     #[error(
         "the uncertainty δ = {delta} is not a finite non-negative number (or δ·spread overflows)"
     )]
-    BadUncertainty { delta: f64 },
+    BadUncertainty {
+        /// The δ given.
+        delta: f64,
+    },
+    /// An action (or a stored transition's action) of the wrong length.
     #[error("the action has {given} entries; the model has {expected} inputs")]
-    ActionWidth { given: usize, expected: usize },
+    ActionWidth {
+        /// Entries given.
+        given: usize,
+        /// Inputs of the model.
+        expected: usize,
+    },
+    /// An action entry is NaN or infinite; the environment is unchanged.
     #[error("action entry {index} is not finite ({value})")]
-    NonFiniteAction { index: usize, value: f64 },
+    NonFiniteAction {
+        /// The entry, 0-based.
+        index: usize,
+        /// Its value.
+        value: f64,
+    },
+    /// [`Env::step`](crate::rl::Env::step) before the first
+    /// [`Env::reset`](crate::rl::Env::reset).
     #[error("the environment must be reset before the first step")]
     NotReset,
+    /// [`Env::step`](crate::rl::Env::step) after the episode's last step or after it
+    /// diverged.
     #[error("the episode is over after {steps} steps; reset to start another")]
-    EpisodeOver { steps: usize },
+    EpisodeOver {
+        /// Steps the episode took.
+        steps: usize,
+    },
+    /// The plant's next state has a NaN or infinite entry; the episode is over.
     #[error("the state is not finite after step {step}: {state:?}")]
-    Diverged { step: usize, state: Vec<f64> },
+    Diverged {
+        /// The step that produced it (0-based).
+        step: usize,
+        /// The non-finite next state.
+        state: Vec<f64>,
+    },
+    /// An observation of the wrong length for a normaliser, a buffer or a policy.
     #[error("the observation has {given} entries; the normaliser expects {expected}")]
-    ObservationWidth { given: usize, expected: usize },
+    ObservationWidth {
+        /// Entries given.
+        given: usize,
+        /// Entries expected.
+        expected: usize,
+    },
+    /// A flat batch whose length is not a multiple of the row width (or whose width is 0).
     #[error("a batch of {len} values does not fill rows of {width}")]
-    BatchShape { len: usize, width: usize },
+    BatchShape {
+        /// Values in the batch.
+        len: usize,
+        /// Values per row.
+        width: usize,
+    },
+    /// A sample was asked of a replay buffer holding no transition.
     #[error("the replay buffer is empty")]
     EmptyBuffer,
+    /// A checkpoint or policy file could not be written, read or used.
     #[error("checkpoint {path}: {why}")]
-    Checkpoint { path: String, why: String },
+    Checkpoint {
+        /// The file or directory.
+        path: String,
+        /// What went wrong.
+        why: String,
+    },
+    /// A training setting (SAC or value fit) is out of range.
     #[error("agent setting {name}: {why}")]
-    BadConfig { name: &'static str, why: String },
+    BadConfig {
+        /// The setting.
+        name: &'static str,
+        /// Why it is refused.
+        why: String,
+    },
+    /// The tensor library (burn) failed; holds its message.
     #[error("the tensor back-end failed: {0}")]
     Backend(String),
+    /// A normaliser setting is out of range.
     #[error("normaliser setting {name} = {value} is invalid: {why}")]
     BadSetting {
+        /// The setting.
         name: &'static str,
+        /// Its value.
         value: f64,
+        /// Why it is refused.
         why: &'static str,
     },
 }
