@@ -44,11 +44,17 @@ pub struct ReplayBuffer {
 /// A drawn batch, row-major, observations already standardised.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Batch {
+    /// Transitions drawn (rows).
     pub size: usize,
+    /// Standardised observations, one row per transition.
     pub observations: Vec<f32>,
+    /// Actions as stored (in `[−1, 1]` when the agent chose them), one row per transition.
     pub actions: Vec<f32>,
+    /// One reward per transition.
     pub rewards: Vec<f32>,
+    /// Standardised observations after the transition, one row per transition.
     pub next_observations: Vec<f32>,
+    /// 1 where the transition was pushed with `done`, else 0.
     pub dones: Vec<f32>,
 }
 
@@ -70,14 +76,17 @@ impl ReplayBuffer {
         }
     }
 
+    /// Transitions held, at most the capacity.
     pub fn len(&self) -> usize {
         self.len
     }
 
+    /// Whether it holds no transition yet.
     pub fn is_empty(&self) -> bool {
         self.len == 0
     }
 
+    /// Transitions it holds before overwriting the oldest (at least 1).
     pub fn capacity(&self) -> usize {
         self.capacity
     }

@@ -9,8 +9,11 @@ use serde::{Deserialize, Serialize};
 /// Adam's state for one group of parameter vectors.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Adam {
+    /// Decay of the first-moment average (0.9).
     pub beta1: f32,
+    /// Decay of the second-moment average (0.999).
     pub beta2: f32,
+    /// Added to the root of the second moment in the denominator (1e-8).
     pub epsilon: f32,
     /// Steps taken so far.
     pub steps: u64,

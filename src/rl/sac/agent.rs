@@ -25,6 +25,7 @@ use serde::{Deserialize, Serialize};
 
 /// SB3's bounds on the actor's log standard deviation.
 pub const LOG_STD_MIN: f32 = -20.0;
+/// The upper of SB3's bounds on the actor's log standard deviation.
 pub const LOG_STD_MAX: f32 = 2.0;
 /// SB3's guard inside `log(1 − tanh² + ε)`.
 const SQUASH_EPSILON: f32 = 1e-6;
@@ -32,24 +33,36 @@ const SQUASH_EPSILON: f32 = 1e-6;
 /// The networks and optimiser states of a soft actor-critic agent.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Sac {
+    /// Entries of an observation (the actor's input).
     pub observation_width: usize,
+    /// Entries of an action (one per model input).
     pub action_width: usize,
     /// Outputs `[μ, log σ]`, `2 × action_width` values.
     pub actor: Net,
+    /// The twin critics `Q_1, Q_2`: input `[observation, action]`, output one value.
     pub critics: [Net; 2],
+    /// The Polyak-averaged target critics `Q̄_1, Q̄_2`.
     pub targets: [Net; 2],
+    /// `log α`, the logarithm of the entropy coefficient.
     pub log_alpha: f32,
+    /// Adam's state for the actor.
     pub actor_adam: Adam,
+    /// Adam's state for each critic, in the order of `critics`.
     pub critic_adam: [Adam; 2],
+    /// Adam's state for `log_alpha`.
     pub alpha_adam: Adam,
 }
 
 /// What one gradient step measured.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct UpdateStats {
+    /// The critics' loss `½ mean((Q_i − y)²)`, summed over both critics.
     pub critic_loss: f32,
+    /// The actor's loss `mean(α log π − min_i Q_i)`.
     pub actor_loss: f32,
+    /// The entropy coefficient α used in this step (before `log α` moved).
     pub alpha: f32,
+    /// The batch estimate of the policy's entropy, `−mean(log π(ã|s))`.
     pub entropy: f32,
 }
 

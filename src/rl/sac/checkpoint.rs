@@ -21,13 +21,21 @@ use std::path::{Path, PathBuf};
 
 /// The contents of a checkpoint.
 pub struct Checkpoint {
+    /// The training's settings.
     pub config: SacConfig,
+    /// The agent: networks and optimiser states.
     pub agent: Sac,
+    /// The replay buffer, every stored transition.
     pub buffer: ReplayBuffer,
+    /// The observation statistics, as they stood.
     pub normalizer: Normalizer,
+    /// The trainer's generator, at its exact position.
     pub rng: ChaCha8Rng,
+    /// Environment steps taken so far.
     pub total_steps: u64,
+    /// The learning curve so far, one record per completed episode.
     pub curve: Vec<EpisodeRecord>,
+    /// The best evaluated policy so far, if any.
     pub best: Option<BestPolicy>,
 }
 

@@ -17,9 +17,14 @@ use serde::{Deserialize, Serialize};
 /// One affine layer: weights `inputs × outputs`, row-major by input (burn's `x · W` layout).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Layer {
+    /// Inputs of the layer.
     pub inputs: usize,
+    /// Outputs of the layer.
     pub outputs: usize,
+    /// `inputs × outputs` weights, row-major: row `i` holds the weights out of input `i`
+    /// (the transpose of [`Dense`]'s layout).
     pub weight: Vec<f32>,
+    /// One bias per output.
     pub bias: Vec<f32>,
 }
 
@@ -27,7 +32,9 @@ pub struct Layer {
 /// network) and a linear output layer.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Net {
+    /// Its layers, input side first.
     pub layers: Vec<Layer>,
+    /// The activation after every layer but the last (ReLU when a file omits it).
     #[serde(default = "relu_activation")]
     pub hidden: Activation,
 }
@@ -90,10 +97,12 @@ impl Net {
         Net { layers, hidden }
     }
 
+    /// Inputs of the first layer.
     pub fn inputs(&self) -> usize {
         self.layers[0].inputs
     }
 
+    /// Outputs of the last layer.
     pub fn outputs(&self) -> usize {
         self.layers[self.layers.len() - 1].outputs
     }

@@ -43,10 +43,14 @@ use std::time::Instant;
 pub struct SacConfig {
     /// Hidden layer widths of the actor and of each critic.
     pub hidden: Vec<usize>,
+    /// Discount factor γ of the critics' targets, in `(0, 1]`.
     pub gamma: f64,
     /// Initial learning rate, decaying linearly to zero.
     pub learning_rate: f64,
+    /// Transitions per gradient step (one gradient step per environment step after the
+    /// warm-up).
     pub batch_size: usize,
+    /// Capacity of the replay buffer, in transitions.
     pub buffer_size: usize,
     /// Episodes of uniformly random actions before learning starts.
     pub warmup_episodes: usize,
@@ -56,6 +60,8 @@ pub struct SacConfig {
     pub tau: f64,
     /// Target entropy; `None` means `−(number of inputs)`, SB3's `'auto'`.
     pub target_entropy: Option<f64>,
+    /// Seed of the networks' initialisation, the actions and batches, and (derived per
+    /// episode) the environment's draws.
     pub seed: u64,
     /// Evaluate the deterministic policy every this many episodes (0: never).
     pub eval_every: usize,
@@ -126,14 +132,19 @@ pub struct EpisodeRecord {
     pub steps: usize,
     /// Cumulative reward of the training episode (exploration included).
     pub reward: f64,
+    /// Whether it was a warm-up episode (random actions, no learning).
     pub warmup: bool,
+    /// Whether the state diverged, ending the episode early.
     pub diverged: bool,
     /// Mean cumulative reward of the deterministic policy, when evaluated after this episode.
     pub eval_reward: Option<f64>,
     /// Means over the episode's gradient steps (zero in the warm-up).
     pub critic_loss: f64,
+    /// Mean actor loss (see [`UpdateStats`]).
     pub actor_loss: f64,
+    /// Mean entropy coefficient α.
     pub alpha: f64,
+    /// Mean batch estimate of the policy's entropy.
     pub entropy: f64,
     /// Wall time of the episode, seconds.
     pub wall_s: f64,
@@ -142,18 +153,26 @@ pub struct EpisodeRecord {
 /// Where a running episode is, for progress bars.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StepProgress {
+    /// The episode, 1-based.
     pub episode: usize,
+    /// Steps taken in this episode so far.
     pub step: usize,
+    /// Environment steps taken in the training so far.
     pub total_steps: u64,
+    /// Reward summed over this episode so far.
     pub reward: f64,
 }
 
 /// The best evaluated policy so far.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct BestPolicy {
+    /// Its mean cumulative reward over the evaluation episodes.
     pub eval_reward: f64,
+    /// The episode after which it was evaluated, 1-based.
     pub episode: usize,
+    /// The actor network then.
     pub actor: Net,
+    /// The observation statistics then, frozen.
     pub normalizer: Normalizer,
 }
 
@@ -321,22 +340,28 @@ impl Trainer {
         checkpoint::write(self, dir)
     }
 
+    /// The training's settings.
     pub fn config(&self) -> &SacConfig {
         &self.config
     }
 
+    /// The agent as it stands.
     pub fn agent(&self) -> &Sac {
         &self.agent
     }
 
+    /// The learning curve: one record per completed episode.
     pub fn curve(&self) -> &[EpisodeRecord] {
         &self.curve
     }
 
+    /// The best evaluated policy so far (`None` before an evaluation, or when every
+    /// evaluated policy diverged).
     pub fn best(&self) -> Option<&BestPolicy> {
         self.best.as_ref()
     }
 
+    /// The running observation statistics (not frozen).
     pub fn normalizer(&self) -> &Normalizer {
         &self.normalizer
     }
@@ -346,6 +371,7 @@ impl Trainer {
         self.curve.len()
     }
 
+    /// Whether `config.episodes` episodes are done.
     pub fn is_finished(&self) -> bool {
         self.curve.len() >= self.config.episodes
     }
