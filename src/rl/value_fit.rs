@@ -22,12 +22,17 @@ use serde::{Deserialize, Serialize};
 /// Regression settings; the defaults are the paper's.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ValueFitConfig {
+    /// Hidden layer widths of the tanh network.
     pub hidden: Vec<usize>,
+    /// Initial Adam learning rate, decaying linearly towards zero over all batches.
     pub learning_rate: f64,
+    /// Points per gradient step.
     pub batch_size: usize,
+    /// Passes over the training points.
     pub epochs: usize,
     /// Fraction of the points held out for validation.
     pub validation: f64,
+    /// Seed of the initialisation, the validation split and the shuffles.
     pub seed: u64,
 }
 
@@ -47,8 +52,12 @@ impl Default for ValueFitConfig {
 /// One epoch of the learning curve, losses in squared return units.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct EpochLoss {
+    /// The epoch, 1-based.
     pub epoch: usize,
+    /// Mean squared error over the epoch's training batches, as the network moved.
     pub train: f64,
+    /// Mean squared error on the held-out points after the epoch (NaN when none are
+    /// held out).
     pub validation: f64,
 }
 
