@@ -62,6 +62,7 @@ impl Derivatives {
         }
     }
 
+    /// The tape inputs differentiated against, in column order.
     pub fn wrt(&self) -> &[usize] {
         &self.wrt
     }

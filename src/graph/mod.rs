@@ -66,6 +66,7 @@ pub struct NodeId(u32);
 impl NodeId {
     const NONE: NodeId = NodeId(u32::MAX);
 
+    /// Its position in the graph's node list.
     pub fn index(self) -> usize {
         self.0 as usize
     }
@@ -116,18 +117,22 @@ pub struct Graph {
 }
 
 impl Graph {
+    /// An empty graph.
     pub fn new() -> Graph {
         Graph::default()
     }
 
+    /// Nodes in the graph (each distinct expression once).
     pub fn len(&self) -> usize {
         self.nodes.len()
     }
 
+    /// Whether it has no nodes.
     pub fn is_empty(&self) -> bool {
         self.nodes.is_empty()
     }
 
+    /// What node `id` computes.
     pub fn node(&self, id: NodeId) -> Node {
         self.nodes[id.index()]
     }
@@ -142,12 +147,14 @@ impl Graph {
         id
     }
 
+    /// The literal `value` (`−0.0` and `0.0` are one node).
     pub fn constant(&mut self, value: f64) -> NodeId {
         // One zero: -0.0 and 0.0 share a node.
         let value = if value == 0.0 { 0.0 } else { value };
         self.intern(Node::Const(value.to_bits()))
     }
 
+    /// Input variable number `index` (its position in the input vector of an evaluation).
     pub fn var(&mut self, index: usize) -> NodeId {
         self.intern(Node::Var(index as u32))
     }
@@ -236,21 +243,27 @@ impl Graph {
         }
     }
 
+    /// `a + b`.
     pub fn add(&mut self, a: NodeId, b: NodeId) -> NodeId {
         self.apply(Op::Add, &[a, b])
     }
+    /// `a − b`.
     pub fn sub(&mut self, a: NodeId, b: NodeId) -> NodeId {
         self.apply(Op::Sub, &[a, b])
     }
+    /// `a · b`.
     pub fn mul(&mut self, a: NodeId, b: NodeId) -> NodeId {
         self.apply(Op::Mul, &[a, b])
     }
+    /// `a / b`.
     pub fn div(&mut self, a: NodeId, b: NodeId) -> NodeId {
         self.apply(Op::Div, &[a, b])
     }
+    /// `−a`.
     pub fn neg(&mut self, a: NodeId) -> NodeId {
         self.apply(Op::Neg, &[a])
     }
+    /// `factor · a`, with `factor` a constant.
     pub fn scale(&mut self, factor: f64, a: NodeId) -> NodeId {
         let f = self.constant(factor);
         self.mul(f, a)

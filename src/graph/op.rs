@@ -43,6 +43,7 @@ pub enum Op {
 }
 
 impl Op {
+    /// How many arguments it takes (1 to 3).
     pub fn arity(self) -> usize {
         use Op::*;
         match self {
@@ -52,7 +53,8 @@ impl Op {
         }
     }
 
-    /// The function name used in the language, for those ops called as functions.
+    /// The op a function name of the language calls (`exp`, `log` or `ln`, `if`, ...);
+    /// `None` for any other name.
     pub fn from_function(name: &str) -> Option<Op> {
         Some(match name {
             "exp" => Op::Exp,
@@ -75,6 +77,8 @@ impl Op {
         "exp", "log", "sqrt", "abs", "tanh", "sin", "cos", "min", "max", "pow", "if",
     ];
 
+    /// Whether its two arguments may be swapped (`+`, `·`, `min`, `max`); the graph orders
+    /// them so that both orders share a node.
     pub fn is_commutative(self) -> bool {
         matches!(self, Op::Add | Op::Mul | Op::Min | Op::Max)
     }

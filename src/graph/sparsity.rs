@@ -122,6 +122,7 @@ impl Sparsity {
         }
     }
 
+    /// Structural non-zeros of the Jacobian, all rows together.
     pub fn jacobian_nnz(&self) -> usize {
         self.jacobian.iter().map(Vec::len).sum()
     }

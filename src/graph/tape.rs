@@ -108,10 +108,12 @@ impl Tape {
         }
     }
 
+    /// Length of the input vector an evaluation takes.
     pub fn n_inputs(&self) -> usize {
         self.n_inputs
     }
 
+    /// Values an evaluation returns, in the order of the outputs it was compiled with.
     pub fn n_outputs(&self) -> usize {
         self.outputs.len()
     }
