@@ -39,6 +39,7 @@ pub enum Expr {
 }
 
 impl Expr {
+    /// Where the whole expression is in the source.
     pub fn span(&self) -> Span {
         match self {
             Expr::Number(_, s) | Expr::Next(_, s) | Expr::Neg(_, s) => *s,
@@ -87,6 +88,7 @@ pub enum TermKind {
 }
 
 impl TermKind {
+    /// The statement keyword that declares it: `reward`, `cost` or `terminal`.
     pub fn keyword(self) -> &'static str {
         match self {
             TermKind::Reward => "reward",

@@ -31,6 +31,7 @@ pub struct Diagnostic {
 }
 
 impl Diagnostic {
+    /// An error at `span`, with no label, help or related places yet.
     pub fn error(code: &'static str, span: Span, message: impl Into<String>) -> Diagnostic {
         Diagnostic {
             severity: Severity::Error,
@@ -43,6 +44,7 @@ impl Diagnostic {
         }
     }
 
+    /// A warning at `span`, with no label, help or related places yet.
     pub fn warning(code: &'static str, span: Span, message: impl Into<String>) -> Diagnostic {
         Diagnostic {
             severity: Severity::Warning,
@@ -50,21 +52,25 @@ impl Diagnostic {
         }
     }
 
+    /// Sets the short text under the caret.
     pub fn label(mut self, label: impl Into<String>) -> Diagnostic {
         self.label = label.into();
         self
     }
 
+    /// Sets what to do about it.
     pub fn help(mut self, help: impl Into<String>) -> Diagnostic {
         self.help = Some(help.into());
         self
     }
 
+    /// Adds a secondary place with its text.
     pub fn related(mut self, span: Span, text: impl Into<String>) -> Diagnostic {
         self.related.push((span, text.into()));
         self
     }
 
+    /// Whether it is an error (one error stops the model from loading).
     pub fn is_error(&self) -> bool {
         self.severity == Severity::Error
     }

@@ -18,12 +18,14 @@ pub struct Info {
     pub source: String,
 }
 
+/// A `state`: its name, unit and description, and its initial value.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StateDecl {
     pub info: Info,
     pub initial: f64,
 }
 
+/// An `input`: bounds, optional rate limit and the value before the first step.
 #[derive(Debug, Clone, PartialEq)]
 pub struct InputDecl {
     pub info: Info,
@@ -35,6 +37,7 @@ pub struct InputDecl {
     pub start: f64,
 }
 
+/// A `disturbance`: read from a weather column or held constant.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DisturbanceDecl {
     pub info: Info,
@@ -44,6 +47,7 @@ pub struct DisturbanceDecl {
     pub value: Option<f64>,
 }
 
+/// A `param` or `const`: its nominal value and whether uncertainty may perturb it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ParamDecl {
     pub info: Info,
@@ -51,6 +55,8 @@ pub struct ParamDecl {
     pub kind: ParamKind,
 }
 
+/// An `output`: a named expression of the variables, observed by controllers and bounded
+/// by soft bands.
 #[derive(Debug, Clone, PartialEq)]
 pub struct OutputDecl {
     pub info: Info,
@@ -134,18 +140,23 @@ pub struct Layout {
 }
 
 impl Layout {
+    /// Variable number of state `i`.
     pub fn x(&self, i: usize) -> usize {
         i
     }
+    /// Variable number of input `i`.
     pub fn u(&self, i: usize) -> usize {
         self.nx + i
     }
+    /// Variable number of disturbance `i`.
     pub fn d(&self, i: usize) -> usize {
         self.nx + self.nu + i
     }
+    /// Variable number of parameter `i`.
     pub fn p(&self, i: usize) -> usize {
         self.nx + self.nu + self.nd + i
     }
+    /// Variable number of `next(x_i)`, the state after the step (after `(x, u, d, p)`).
     pub fn x_next(&self, i: usize) -> usize {
         self.nx + self.nu + self.nd + self.np + i
     }
@@ -201,6 +212,7 @@ pub struct Model {
 }
 
 impl Model {
+    /// The sizes of its variable groups.
     pub fn layout(&self) -> Layout {
         Layout {
             nx: self.states.len(),
@@ -210,14 +222,17 @@ impl Model {
         }
     }
 
+    /// Every parameter's nominal value, in declaration order.
     pub fn nominal_params(&self) -> Vec<f64> {
         self.params.iter().map(|p| p.value).collect()
     }
 
+    /// Every state's initial value, in declaration order.
     pub fn initial_state(&self) -> Vec<f64> {
         self.states.iter().map(|s| s.initial).collect()
     }
 
+    /// Every input's value before the first step, in declaration order.
     pub fn start_input(&self) -> Vec<f64> {
         self.inputs.iter().map(|u| u.start).collect()
     }
@@ -240,6 +255,7 @@ impl Model {
             .unwrap_or_default()
     }
 
+    /// The position of the output named `name`, if there is one.
     pub fn output_index(&self, name: &str) -> Option<usize> {
         self.outputs.iter().position(|o| o.info.name == name)
     }

@@ -11,6 +11,7 @@ pub struct Span {
 }
 
 impl Span {
+    /// The bytes `start..end` of file `file` (its index in the [`SourceMap`]).
     pub fn new(file: usize, start: usize, end: usize) -> Span {
         Span { file, start, end }
     }
@@ -36,6 +37,7 @@ pub struct SourceFile {
 }
 
 impl SourceFile {
+    /// A file read from `path` with contents `text`, its lines indexed.
     pub fn new(path: &Path, text: String) -> SourceFile {
         let line_starts = std::iter::once(0)
             .chain(text.match_indices('\n').map(|(i, _)| i + 1))
@@ -80,6 +82,7 @@ pub struct SourceMap {
 }
 
 impl SourceMap {
+    /// Adds a file and returns its index, for [`Span::file`].
     pub fn add(&mut self, file: SourceFile) -> usize {
         self.files.push(file);
         self.files.len() - 1
