@@ -5,6 +5,7 @@ use crate::cli::weather_args::{UncertaintyArgs, WeatherArgs};
 use crate::cli::{load_model, CliError};
 use crate::control::Mpc;
 use crate::model::Plant;
+use crate::nlp::Bands;
 use crate::solve::{Solver, Sqp};
 use clap::{Args, ValueEnum};
 use serde_json::json;
@@ -20,6 +21,52 @@ pub enum SolverChoice {
     Ipopt,
 }
 
+/// Which bounds of the soft bands MPC plans with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum BandsChoice {
+    /// The model file's `plan` bounds when the plant is uncertain (`--uncertainty` > 0),
+    /// the scoring bounds when it is the model (default).
+    Auto,
+    /// Always the `plan` bounds (a back-off even on the nominal plant).
+    Planning,
+    /// Always the bounds the season is scored with.
+    Scoring,
+}
+
+impl BandsChoice {
+    /// The bands for a season on a plant with this uncertainty.
+    pub fn resolve(self, plant: &UncertaintyArgs) -> Bands {
+        match self {
+            BandsChoice::Planning => Bands::Planning,
+            BandsChoice::Scoring => Bands::Scoring,
+            BandsChoice::Auto if plant.uncertainty > 0.0 => Bands::Planning,
+            BandsChoice::Auto => Bands::Scoring,
+        }
+    }
+}
+
+/// MPC of `plant` over `horizon` steps with the chosen back-end and bands.
+pub fn make_mpc(
+    plant: &Arc<Plant>,
+    horizon: usize,
+    solver: SolverChoice,
+    bands: Bands,
+) -> Result<Mpc, CliError> {
+    let fail = |e: crate::nlp::OcpError| CliError::Argument(e.to_string());
+    Mpc::new(plant.clone(), horizon, make_solver(solver)?)
+        .map_err(fail)?
+        .with_bands(bands)
+        .map_err(fail)
+}
+
+/// The bands' name in `summary.json`.
+pub fn bands_name(bands: Bands) -> &'static str {
+    match bands {
+        Bands::Planning => "planning",
+        Bands::Scoring => "scoring",
+    }
+}
+
 #[derive(Debug, Args)]
 pub struct MpcArgs {
     /// The model file (.ghm).
@@ -30,6 +77,10 @@ pub struct MpcArgs {
     /// NLP back-end.
     #[arg(long, value_enum, default_value_t = SolverChoice::Sqp)]
     pub solver: SolverChoice,
+    /// Soft-band bounds to plan with: `auto` plans with the model file's `plan` bounds on
+    /// an uncertain plant and with the scoring bounds on the nominal one.
+    #[arg(long, value_enum, default_value_t = BandsChoice::Auto)]
+    pub bands: BandsChoice,
     #[command(flatten)]
     pub weather: WeatherArgs,
     #[command(flatten)]
@@ -88,9 +139,8 @@ pub fn run(args: &MpcArgs) -> Result<(), CliError> {
     let model = load_model(&args.file)?;
     let plant = Arc::new(Plant::new(model));
     let horizon = parse_horizon(&args.horizon, plant.model.sample_period)?;
-    let solver = make_solver(args.solver)?;
-    let mut mpc =
-        Mpc::new(plant.clone(), horizon, solver).map_err(|e| CliError::Argument(e.to_string()))?;
+    let bands = args.bands.resolve(&args.plant);
+    let mut mpc = make_mpc(&plant, horizon, args.solver, bands)?;
     let season = SeasonArgs {
         file: &args.file,
         weather: &args.weather,
@@ -103,7 +153,11 @@ pub fn run(args: &MpcArgs) -> Result<(), CliError> {
         &season,
         &plant,
         &mut mpc,
-        json!({ "horizon_steps": horizon, "horizon_h": horizon as f64 * plant.model.sample_period / 3600.0 }),
+        json!({
+            "horizon_steps": horizon,
+            "horizon_h": horizon as f64 * plant.model.sample_period / 3600.0,
+            "bands": bands_name(bands),
+        }),
     )?;
     Ok(())
 }

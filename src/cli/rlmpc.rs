@@ -5,11 +5,11 @@
 //! `--compare` also runs plain MPC at the same horizon and prints both.
 
 use crate::cli::guide::{guide_factory, shipped_dir, GuideChoice};
-use crate::cli::mpc::{make_solver, parse_horizon, SolverChoice};
+use crate::cli::mpc::{bands_name, make_mpc, parse_horizon, BandsChoice, SolverChoice};
 use crate::cli::simulate::{run_season_and_report, SeasonArgs};
 use crate::cli::weather_args::{UncertaintyArgs, WeatherArgs};
 use crate::cli::{load_model, CliError};
-use crate::control::{Mpc, RlGuidance, RlMpcOptions, TerminalCostForm, ValueFile};
+use crate::control::{RlGuidance, RlMpcOptions, TerminalCostForm, ValueFile};
 use crate::model::Plant;
 use clap::{Args, ValueEnum};
 use serde_json::json;
@@ -63,6 +63,9 @@ pub struct RlmpcArgs {
     /// The NLP back-end.
     #[arg(long, value_enum, default_value_t = SolverChoice::Sqp)]
     pub solver: SolverChoice,
+    /// Soft-band bounds to plan with (as `ghm mpc --bands`).
+    #[arg(long, value_enum, default_value_t = BandsChoice::Auto)]
+    pub bands: BandsChoice,
     #[command(flatten)]
     pub weather: WeatherArgs,
     #[command(flatten)]
@@ -137,9 +140,9 @@ pub fn run(args: &RlmpcArgs) -> Result<(), CliError> {
         options,
     )
     .map_err(|e| CliError::Argument(e.to_string()))?;
-    let mut controller = Mpc::new(plant.clone(), horizon, make_solver(args.solver)?)
-        .map_err(|e| CliError::Argument(e.to_string()))?
-        .with_guidance(Box::new(guidance));
+    let bands = args.bands.resolve(&args.plant);
+    let mut controller =
+        make_mpc(&plant, horizon, args.solver, bands)?.with_guidance(Box::new(guidance));
     let extra = json!({
         "horizon_steps": horizon,
         "horizon_h": horizon as f64 * plant.model.sample_period / 3600.0,
@@ -147,6 +150,7 @@ pub fn run(args: &RlmpcArgs) -> Result<(), CliError> {
         "variant": format!("{:?}", args.variant).to_lowercase(),
         "epsilon": args.epsilon,
         "terminal_cost": format!("{:?}", args.terminal_cost).to_lowercase(),
+        "bands": bands_name(bands),
     });
     fn season<'a>(args: &'a RlmpcArgs, out: &'a Path, horizon: usize) -> SeasonArgs<'a> {
         SeasonArgs {
@@ -166,14 +170,13 @@ pub fn run(args: &RlmpcArgs) -> Result<(), CliError> {
     )?;
     if args.compare {
         let mpc_dir = args.out.join("mpc");
-        let mut mpc = Mpc::new(plant.clone(), horizon, make_solver(args.solver)?)
-            .map_err(|e| CliError::Argument(e.to_string()))?;
+        let mut mpc = make_mpc(&plant, horizon, args.solver, bands)?;
         println!();
         let plain = run_season_and_report(
             &season(args, &mpc_dir, horizon),
             &plant,
             &mut mpc,
-            json!({ "horizon_steps": horizon }),
+            json!({ "horizon_steps": horizon, "bands": bands_name(bands) }),
         )?;
         let unit = plant.model.objective_unit();
         println!();

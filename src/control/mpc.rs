@@ -2,11 +2,10 @@
 //! over the horizon from the measured state and apply the first input.
 //!
 //! The solve starts from the previous solution shifted by one step (primal and dual). Its
-//! status is checked every step; when it fails, the controller falls back, in this order:
-//!
-//! The warm solve is capped at [`Mpc::warm_iteration_limit`] iterations (15): from a
-//! shifted solution SQP needs two or three, and one that needs many more is usually stuck
-//! on a flat stretch of the economic cost, where a cold start is the better use of time.
+//! status is checked every step. The warm solve is capped at [`Mpc::warm_iteration_limit`]
+//! iterations (15): from a shifted solution SQP needs two or three, and one that needs many
+//! more is usually stuck on a flat stretch of the economic cost, where a cold start is the
+//! better use of time. When it fails, the controller falls back, in this order:
 //!
 //! 1. `cold_start`: solve again from the held previous input, simulated (under guidance,
 //!    first from a fresh roll-out of the guide, its terminal region re-centred on it);
@@ -23,7 +22,7 @@
 
 use super::{ControlError, Controller, Decision, Observation, StepRecord};
 use crate::model::Plant;
-use crate::nlp::{Nlp, Ocp, OcpError};
+use crate::nlp::{Bands, Nlp, Ocp, OcpError};
 use crate::solve::{Solution, Solver, Start};
 use std::sync::Arc;
 use std::time::Instant;
@@ -91,6 +90,16 @@ impl Mpc {
             warm_iteration_limit: Some(15),
             guidance: None,
         })
+    }
+
+    /// MPC whose problem measures the soft bands at `bands`: [`Bands::Planning`] (the
+    /// default of [`Mpc::new`]: the model file's `plan` bounds, a back-off for a plant
+    /// that differs from the model) or [`Bands::Scoring`] (the bounds the season is scored
+    /// with, right when the plant is the model).
+    pub fn with_bands(mut self, bands: Bands) -> Result<Mpc, OcpError> {
+        let plant = Arc::clone(self.ocp.plant());
+        self.ocp = Ocp::with_bands(plant, self.ocp.horizon(), bands)?;
+        Ok(self)
     }
 
     /// MPC with a [`Guidance`]: RL-guided MPC.

@@ -245,8 +245,9 @@ impl Model {
             .collect()
     }
 
-    /// The unit of the objective for reports: the unit of the first reward or cost term,
-    /// as written in the model file (`""` when it has none or says `-`).
+    /// The unit of the objective for reports: the unit of the first term of the objective
+    /// (reward, cost or terminal), as written in the model file (`""` when it has none or
+    /// says `-`).
     pub fn objective_unit(&self) -> String {
         self.terms
             .first()

@@ -328,8 +328,9 @@ impl ModelBuilder {
 
     /// Fixes the variable layout and returns the model.
     pub fn build(mut self) -> Result<Model, BuildError> {
-        if let Some(e) = self.errors.pop() {
-            return Err(e);
+        // The first mistake, in the order the calls were made.
+        if !self.errors.is_empty() {
+            return Err(self.errors.swap_remove(0));
         }
         if self.sample_period.is_nan() || self.sample_period <= 0.0 {
             return Err(BuildError::NoSamplePeriod);

@@ -40,7 +40,7 @@ pub enum OptimumError {
     },
 }
 
-/// The optimum and the input sequence it applies (`steps × nu`, row-major).
+/// The optimum and the input sequence it applies (one row of `nu` inputs per step).
 #[derive(Debug, Clone)]
 pub struct SeasonOptimum {
     /// The solver's result for the season-long NLP; check its status before trusting it.

@@ -52,8 +52,6 @@ pub struct SqpOptions {
     /// below it for more than `acceptable_iterations` iterations in a row (the economic
     /// optimum is flat in places and SQP then creeps). A feasible point whose objective
     /// has not moved (relative 1e-10) for `acceptable_iterations` iterations, with a KKT
-    /// residual below 1e-3, is acceptable too: its multipliers are degenerate. A feasible point whose objective
-    /// has not moved (relative 1e-10) for `acceptable_iterations` iterations, with a KKT
     /// residual below 1e-3, is acceptable too: its multipliers are degenerate.
     pub acceptable_tolerance: f64,
     /// The run of iterations `acceptable_tolerance` asks for.

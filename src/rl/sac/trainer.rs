@@ -105,8 +105,11 @@ impl SacConfig {
         if !(self.learning_rate > 0.0 && self.learning_rate.is_finite()) {
             return bad("learning_rate", "must be positive");
         }
-        if self.batch_size == 0 || self.buffer_size == 0 {
-            return bad("batch_size", "batch and buffer sizes must be positive");
+        if self.batch_size == 0 {
+            return bad("batch_size", "must be positive");
+        }
+        if self.buffer_size == 0 {
+            return bad("buffer_size", "must be positive");
         }
         if self.episodes == 0 {
             return bad("episodes", "must be at least one");
