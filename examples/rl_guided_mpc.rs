@@ -1,6 +1,8 @@
 //! RL-guided MPC from the library: the trained agent and value network shipped with the
-//! lettuce model guide a 1-hour MPC; four days on the built-in weather, beside the agent
-//! alone and plain MPC at the same horizon.
+//! lettuce model for ghm's built-in weather guide a 1-hour MPC; four days on that weather,
+//! beside the agent alone and plain MPC at the same horizon. (`models/agents/lettuce/`
+//! holds the agent trained on the Venlo 2014 season; its `builtin/` subfolder the one
+//! trained on the built-in season.)
 //!
 //! Run: `cargo run --release --example rl_guided_mpc`
 
@@ -17,7 +19,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let model = ghm::lang::load(&root.join("models/lettuce.ghm"))?;
     let plant = Arc::new(Plant::new(model));
-    let agent = root.join("models/agents/lettuce");
+    let agent = root.join("models/agents/lettuce/builtin");
     let policy = PolicyFile::load(&agent.join("policy.json"))?;
     let value = ValueFile::load(&agent.join("value-sac.json"))?;
 
