@@ -8,33 +8,50 @@ use crate::lang::source::Span;
 /// An identifier together with where it was written.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Name {
+    /// The identifier as written (letters, digits and `_`; for an `uncertainty` setting's
+    /// value, also a number such as `0.5`).
     pub text: String,
+    /// Where the identifier is in the source.
     pub span: Span,
 }
 
 /// Binary operators of the expression language.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum BinaryOp {
+    /// `a + b`.
     Add,
+    /// `a - b`.
     Sub,
+    /// `a * b`.
     Mul,
+    /// `a / b`.
     Div,
+    /// `a ^ b` (right-associative; also what `pow(a, b)` means).
     Pow,
+    /// `a < b`: 1 if true, else 0.
     Lt,
+    /// `a <= b`: 1 if true, else 0.
     Le,
+    /// `a > b`: 1 if true, else 0.
     Gt,
+    /// `a >= b`: 1 if true, else 0.
     Ge,
 }
 
 /// An expression.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Expr {
+    /// A numeric literal such as `1.5` or `2e-3` (never negative: `-1` is [`Expr::Neg`]).
     Number(f64, Span),
+    /// A reference to a declared name.
     Name(Name),
     /// `next(x)`: the value of state `x` after the step (stage terms only).
     Next(Name, Span),
+    /// Unary minus, `-a`.
     Neg(Box<Expr>, Span),
+    /// `lhs op rhs`.
     Binary(BinaryOp, Box<Expr>, Box<Expr>, Span),
+    /// A function call `f(a, ...)`: the function's name and its arguments in order.
     Call(Name, Vec<Expr>, Span),
 }
 
@@ -52,16 +69,22 @@ impl Expr {
 /// What a declaration says about itself for humans: unit, description and source.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Doc {
+    /// The text inside `[...]` after the name, trimmed (`kg m^-2`); not checked.
     pub unit: Option<String>,
+    /// The quoted string after the declaration, without the quotes.
     pub description: Option<String>,
+    /// The string of `source "..."` (parameters and constants only).
     pub source: Option<String>,
 }
 
 /// One side of a soft band, or a planning band: `in [lo, hi]`, `<= hi` or `>= lo`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Band {
+    /// The lower limit (`in [lo, hi]`, `>= lo`), a constant expression; `None` for `<= hi`.
     pub lo: Option<Expr>,
+    /// The upper limit (`in [lo, hi]`, `<= hi`), a constant expression; `None` for `>= lo`.
     pub hi: Option<Expr>,
+    /// Where the band is in the source.
     pub span: Span,
 }
 
@@ -101,79 +124,142 @@ impl TermKind {
 /// A statement of a `.ghm` file.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Stmt {
+    /// `model NAME "description"`: names the model (the last one wins).
     Model {
+        /// The model's name.
         name: Name,
+        /// The optional quoted description.
         description: Option<String>,
     },
+    /// `import "path.ghm"`: replaced by the imported file's statements while loading.
     Import {
+        /// The path as written, relative to the importing file.
         path: String,
+        /// Where the statement is.
         span: Span,
     },
+    /// `param` or `const` (told apart by `kind`).
     Param {
+        /// The parameter's name.
         name: Name,
+        /// `const`, `param` or `param ... uncertain`.
         kind: ParamKind,
+        /// The nominal value: a constant expression over parameters declared above.
         value: Expr,
+        /// Unit, description and `source "..."`.
         doc: Doc,
     },
+    /// `state NAME [unit] = EXPR "description"`.
     State {
+        /// The state's name.
         name: Name,
+        /// The initial value, a constant expression.
         initial: Expr,
+        /// Unit and description (no source).
         doc: Doc,
     },
+    /// `input NAME [unit] in [LO, HI] rate R start S "description"` (all options optional).
     Input {
+        /// The input's name.
         name: Name,
+        /// `in [LO, HI]`, as constant expressions; `None`: unbounded.
         bounds: Option<(Expr, Expr)>,
+        /// `rate R`: the largest |u(k) − u(k−1)|; `None`: no limit.
         rate: Option<Expr>,
+        /// `start S`: the input before the first step; `None`: 0 clipped into the bounds.
         start: Option<Expr>,
+        /// Unit and description.
         doc: Doc,
     },
+    /// `disturbance NAME [unit] column "name" value V "description"`.
     Disturbance {
+        /// The disturbance's name.
         name: Name,
+        /// `column "name"`: its weather-file column; `None`: the disturbance's own name.
         column: Option<String>,
+        /// `value V`: a constant, used when no weather file is given and every disturbance
+        /// has one.
         value: Option<Expr>,
+        /// Unit and description.
         doc: Doc,
     },
+    /// `let NAME [unit] = EXPR`: a named intermediate expression.
     Let {
+        /// The let's name.
         name: Name,
+        /// Its expression, over states, inputs, disturbances, parameters, lets and outputs.
         expr: Expr,
+        /// The unit only (a `let` has no description).
         doc: Doc,
     },
+    /// `der STATE = EXPR`: the state's time derivative, per second.
     Der {
+        /// The state it differentiates.
         state: Name,
+        /// dx/dt = f(x, u, d, p).
         expr: Expr,
     },
+    /// `output NAME [unit] = EXPR "description"`.
     Output {
+        /// The output's name.
         name: Name,
+        /// y = g(x, u, d, p).
         expr: Expr,
+        /// Unit and description.
         doc: Doc,
     },
+    /// `sample EXPR [unit] integrator NAME substeps N`: the control period.
     Sample {
+        /// The period in `unit`, a constant expression.
         period: Expr,
+        /// `s`, `min` or `h` (anything else is error E017); `None`: seconds.
         unit: Option<String>,
+        /// `integrator rk4|euler`; `None`: `rk4`.
         integrator: Option<Name>,
+        /// `substeps N`: integration steps per period (1–1000); `None`: 1.
         substeps: Option<Expr>,
+        /// Where the statement is.
         span: Span,
     },
+    /// `reward`, `cost` or `terminal NAME [unit] = EXPR "description"`.
     Term {
+        /// Which of the three keywords declared it.
         kind: TermKind,
+        /// The term's name.
         name: Name,
+        /// The term's value as written (a cost is not negated here).
         expr: Expr,
+        /// Unit and description.
         doc: Doc,
     },
+    /// `soft OUTPUT BAND weight W, W_ABOVE plan BAND "description"`.
     Soft {
+        /// The output the band applies to.
         output: Name,
+        /// The band outside which the output is penalised.
         band: Band,
+        /// The first weight: the penalty per unit below the band, and above it too when
+        /// there is no second weight.
         weight_lo: Expr,
+        /// The second weight, `weight w_below, w_above`: the penalty per unit above the band.
         weight_hi: Option<Expr>,
+        /// `plan BAND`: the tighter band a controller may plan with.
         plan: Option<Band>,
+        /// The optional quoted description.
         description: Option<String>,
     },
+    /// `drop KIND NAME`: removes an objective term or a soft band declared before.
     Drop {
+        /// `reward`, `cost`, `soft` or `terminal`, as written.
         kind: String,
+        /// The term's name, or for `soft` the output's.
         name: Name,
     },
+    /// `uncertainty SETTING = VALUE, ...`: the parametric uncertainty rule.
     Uncertainty {
+        /// `(setting, value)` pairs in order, e.g. `(redraw, step)`, `(spread, 0.5)`.
         settings: Vec<(Name, Name)>,
+        /// Where the statement is.
         span: Span,
     },
 }
@@ -181,8 +267,11 @@ pub enum Stmt {
 /// A statement with its span, and whether it was written as `override`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Statement {
+    /// What the statement says.
     pub stmt: Stmt,
+    /// Whether it was written `override ...`, replacing an earlier declaration.
     pub overrides: bool,
+    /// The whole statement, `override` included.
     pub span: Span,
 }
 
