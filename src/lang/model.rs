@@ -12,36 +12,46 @@ use crate::lang::source::SourceMap;
 /// Unit, description and source of a declaration, for people.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Info {
+    /// The declared name.
     pub name: String,
+    /// The text inside `[...]` after the name (`""` when none was written).
     pub unit: String,
+    /// The quoted description (`""` when none was written).
     pub description: String,
+    /// The reference of `source "..."` (parameters only; `""` when none was written).
     pub source: String,
 }
 
 /// A `state`: its name, unit and description, and its initial value.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StateDecl {
+    /// Name, unit and description.
     pub info: Info,
+    /// x(0), with parameters at their nominal values.
     pub initial: f64,
 }
 
 /// An `input`: bounds, optional rate limit and the value before the first step.
 #[derive(Debug, Clone, PartialEq)]
 pub struct InputDecl {
+    /// Name, unit and description.
     pub info: Info,
+    /// Lower bound of `in [LO, HI]`; `-∞` when the input is unbounded.
     pub lower: f64,
+    /// Upper bound of `in [LO, HI]`; `+∞` when the input is unbounded.
     pub upper: f64,
     /// Largest change per step, if rate-limited.
     pub rate: Option<f64>,
-    /// The input applied before the first step.
+    /// The input applied before the first step (`start S`, else 0 clipped into the bounds).
     pub start: f64,
 }
 
 /// A `disturbance`: read from a weather column or held constant.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DisturbanceDecl {
+    /// Name, unit and description.
     pub info: Info,
-    /// Column name in weather files.
+    /// Column name in weather files (`None`: the disturbance's own name).
     pub column: Option<String>,
     /// Constant value used when no weather source provides it.
     pub value: Option<f64>,
@@ -50,8 +60,13 @@ pub struct DisturbanceDecl {
 /// A `param` or `const`: its nominal value and whether uncertainty may perturb it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ParamDecl {
+    /// Name, unit, description and source.
     pub info: Info,
+    /// The nominal value: its expression evaluated with the parameters above it at their
+    /// nominal values.
     pub value: f64,
+    /// [`ParamKind::Uncertain`] or [`ParamKind::Plain`] in [`Model::params`] (constants are
+    /// folded into the graph and not listed there).
     pub kind: ParamKind,
 }
 
@@ -59,6 +74,7 @@ pub struct ParamDecl {
 /// by soft bands.
 #[derive(Debug, Clone, PartialEq)]
 pub struct OutputDecl {
+    /// Name, unit and description.
     pub info: Info,
     /// y = g(x, u, d, p).
     pub node: NodeId,
@@ -67,7 +83,9 @@ pub struct OutputDecl {
 /// A stage or terminal term of the objective (as reward: costs are stored negated).
 #[derive(Debug, Clone, PartialEq)]
 pub struct TermDecl {
+    /// Name, unit and description.
     pub info: Info,
+    /// Whether it was declared as `reward`, `cost` or `terminal`.
     pub kind: TermKind,
     /// The term's contribution to the reward, over `(x, u, d, p, x⁺)` (terminal: over `x, p`).
     pub node: NodeId,
@@ -77,33 +95,48 @@ pub struct TermDecl {
 /// output after the step. The optimiser may plan with the tighter `plan_*` bounds.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SoftBand {
+    /// Index of the banded output in [`Model::outputs`].
     pub output: usize,
+    /// Lower limit of the band; `-∞` for `<= hi`.
     pub lower: f64,
+    /// Upper limit of the band; `+∞` for `>= lo`.
     pub upper: f64,
+    /// Penalty per unit of the output below `lower` (the first weight).
     pub weight_below: f64,
+    /// Penalty per unit of the output above `upper` (the second weight, else the first).
     pub weight_above: f64,
+    /// Lower limit to plan with: the `plan` band intersected with the band (`lower` when
+    /// there is no `plan`).
     pub plan_lower: f64,
+    /// Upper limit to plan with: the `plan` band intersected with the band (`upper` when
+    /// there is no `plan`).
     pub plan_upper: f64,
+    /// The quoted description (`""` when none was written).
     pub description: String,
 }
 
 /// How the integrator discretises `ẋ = f` over one sample period.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Integrator {
+    /// Classical fourth-order Runge–Kutta (`integrator rk4`, the default).
     Rk4,
+    /// Explicit Euler (`integrator euler`).
     Euler,
 }
 
 /// When parametric uncertainty redraws parameters.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Redraw {
+    /// Once per season (`redraw = season`, the default).
     Season,
+    /// Anew at every step (`redraw = step`).
     Step,
 }
 
 /// Parametric uncertainty rule: p̂ ~ U(p(1 − s·δ), p(1 + s·δ)) for the parameters in scope.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Uncertainty {
+    /// When perturbed parameters are drawn.
     pub redraw: Redraw,
     /// s: the half-width as a multiple of δ (1 for the paper, 0.5 for the thesis code).
     pub spread: f64,
@@ -133,9 +166,13 @@ impl Default for Uncertainty {
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Layout {
+    /// Number of states.
     pub nx: usize,
+    /// Number of inputs.
     pub nu: usize,
+    /// Number of disturbances.
     pub nd: usize,
+    /// Number of parameters (`param` only; constants are folded into the graph).
     pub np: usize,
 }
 
@@ -190,22 +227,37 @@ impl Layout {
 /// ```
 #[derive(Debug, Clone)]
 pub struct Model {
+    /// The name of the last `model` statement (`model` when there is none).
     pub name: String,
+    /// The description of that `model` statement (`""` when none).
     pub description: String,
+    /// The main file and its imports, which the spans of `warnings` point into.
     pub sources: SourceMap,
+    /// Every equation lowered into one expression graph, over the variables of [`Layout`].
     pub graph: Graph,
+    /// The states x, in layout order.
     pub states: Vec<StateDecl>,
+    /// The inputs u, in layout order.
     pub inputs: Vec<InputDecl>,
+    /// The disturbances d, in layout order.
     pub disturbances: Vec<DisturbanceDecl>,
+    /// The parameters p (`param` only, not `const`), in layout order.
     pub params: Vec<ParamDecl>,
     /// ẋᵢ = f_i(x, u, d, p), one per state.
     pub derivatives: Vec<NodeId>,
+    /// The outputs y, in declaration order.
     pub outputs: Vec<OutputDecl>,
+    /// The control period T, in seconds (`sample` converted from `[min]` or `[h]`).
     pub sample_period: f64,
+    /// How one period is integrated.
     pub integrator: Integrator,
+    /// Integration steps per period, 1 to 1000 (`substeps N`, default 1).
     pub substeps: usize,
+    /// The objective terms (`reward`, `cost`, `terminal`), in declaration order.
     pub terms: Vec<TermDecl>,
+    /// The soft bands, at most one per output, in declaration order.
     pub soft: Vec<SoftBand>,
+    /// The parametric uncertainty rule (the last `uncertainty` statement, else the default).
     pub uncertainty: Uncertainty,
     /// Warnings found while checking (errors stop checking instead).
     pub warnings: Vec<Diagnostic>,
