@@ -48,7 +48,10 @@ use std::path::{Path, PathBuf};
 /// ```
 #[derive(Clone)]
 pub struct CheckFailure {
+    /// The files read (the main file and its imports), which the spans point into.
     pub sources: SourceMap,
+    /// Every error and warning found: those of parsing and imports first, then those of
+    /// checking.
     pub diagnostics: Vec<Diagnostic>,
 }
 

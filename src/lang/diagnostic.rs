@@ -10,17 +10,22 @@ use codespan_reporting::term;
 /// How bad a diagnostic is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Severity {
+    /// Reported, but the model still loads (codes `W…`).
     Warning,
+    /// Stops the model from loading (codes `E…`).
     Error,
 }
 
 /// One message about the model source.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Diagnostic {
+    /// Error or warning.
     pub severity: Severity,
     /// A stable code, e.g. `E003`, documented in `docs/language.md`.
     pub code: &'static str,
+    /// The headline, e.g. ``unknown name `heatng` ``.
     pub message: String,
+    /// The place the caret points at.
     pub span: Span,
     /// Short text under the caret.
     pub label: String,

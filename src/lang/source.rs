@@ -5,8 +5,11 @@ use std::path::{Path, PathBuf};
 /// A half-open byte range `[start, end)` in one source file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct Span {
+    /// Index of the file in the [`SourceMap`].
     pub file: usize,
+    /// Byte offset of the first byte.
     pub start: usize,
+    /// Byte offset one past the last byte.
     pub end: usize,
 }
 
@@ -29,9 +32,12 @@ impl Span {
 /// One loaded `.ghm` file.
 #[derive(Debug, Clone)]
 pub struct SourceFile {
+    /// The path as the loader was given it (for an import, the importing file's folder
+    /// joined with the import path).
     pub path: PathBuf,
     /// The path as the user should see it in messages.
     pub display: String,
+    /// The whole file, as read.
     pub text: String,
     line_starts: Vec<usize>,
 }
@@ -78,6 +84,7 @@ impl SourceFile {
 /// All files of one model (the main file and what it imports), indexed by [`Span::file`].
 #[derive(Debug, Clone, Default)]
 pub struct SourceMap {
+    /// The files in load order: the main file first, then each import as it is reached.
     pub files: Vec<SourceFile>,
 }
 
