@@ -14,17 +14,29 @@ impl<T: DualNum<Primitive = f64> + Copy> Real for T {}
 /// A primitive operation of the expression graph.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Op {
+    /// `-a`.
     Neg,
+    /// `e^a` (`exp`).
     Exp,
+    /// Natural logarithm `ln a` (`log`, `ln`); not a number for `a < 0`.
     Log,
+    /// `√a` (`sqrt`).
     Sqrt,
+    /// `|a|` (`abs`); its derivative at 0 is taken as 1.
     Abs,
+    /// Hyperbolic tangent of `a` (`tanh`).
     Tanh,
+    /// Sine of `a`, in radians (`sin`).
     Sin,
+    /// Cosine of `a`, in radians (`cos`).
     Cos,
+    /// `a + b`.
     Add,
+    /// `a − b`.
     Sub,
+    /// `a · b`.
     Mul,
+    /// `a / b`.
     Div,
     /// `a^b` for a general exponent `b`, as `exp(b ln a)`.
     Pow,
@@ -32,11 +44,17 @@ pub enum Op {
     Powi(i32),
     /// `a^e` for a constant real `e` (stored as its bit pattern so ops stay hashable).
     Powf(u64),
+    /// The smaller of `a` and `b` (`a` on a tie), with the derivatives of that argument.
     Min,
+    /// The larger of `a` and `b` (`a` on a tie), with the derivatives of that argument.
     Max,
+    /// 1 where `a < b`, else 0; derivative 0.
     Lt,
+    /// 1 where `a <= b`, else 0; derivative 0.
     Le,
+    /// 1 where `a > b`, else 0; derivative 0.
     Gt,
+    /// 1 where `a >= b`, else 0; derivative 0.
     Ge,
     /// `if(c, a, b)`: `a` where `c > 0.5`, else `b`.
     Select,
