@@ -24,14 +24,28 @@ pub enum CliError {
     /// The model file has errors; the rendered diagnostics are the message.
     #[error("{0}")]
     Model(String),
+    /// The weather file could not be read, or does not fit the model.
     #[error("{0}")]
     Weather(#[from] crate::sim::weather::WeatherError),
+    /// A season stopped: the weather does not cover it or fit the model, the controller
+    /// failed, the state diverged, or the step log could not be written.
     #[error("{0}")]
     Simulation(#[from] crate::sim::season::SimError),
+    /// A command-line value that is out of range or does not fit the model, or an error of
+    /// a controller, the trainer or a value fit; the message says which.
     #[error("{0}")]
     Argument(String),
+    /// An output folder or file (summary, plot, learning curve, ...) could not be created
+    /// or written.
     #[error("cannot write {path}: {message}")]
-    Output { path: PathBuf, message: String },
+    Output {
+        /// The file or folder that could not be written.
+        path: PathBuf,
+        /// Why, as the I/O or encoding error says it.
+        message: String,
+    },
+    /// `ghm check --verify-derivatives`: the exact derivatives of the step differ from the
+    /// numerical ones; holds the largest relative error (Jacobian or Hessian), above 1e-6.
     #[error("derivative check failed: largest relative error {0:.3e} exceeds 1e-6")]
     DerivativeCheck(f64),
 }
