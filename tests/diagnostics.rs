@@ -361,6 +361,20 @@ soft temp in [20, 10] weight 1/300, -1/200
 "#
 );
 
+// One negative weight for both sides is one error, not two; a planning band that leaves
+// nothing of the soft band is an error too.
+bad!(
+    soft_band_single_negative_weight_and_empty_plan,
+    2,
+    r#"
+sample 30 [min]
+state temp_air [°C] = 15
+der temp_air = -temp_air / 3600
+output temp [°C] = temp_air
+soft temp in [10, 20] weight -1 plan >= 25
+"#
+);
+
 // ---- reuse -----------------------------------------------------------------------------
 
 bad!(

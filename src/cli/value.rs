@@ -181,9 +181,10 @@ pub fn run(args: &ValueArgs) -> Result<(), CliError> {
         validation_loss: last.validation,
     };
     let value_path = args.out.join("value.json");
-    value
-        .save(&value_path)
-        .map_err(|e| CliError::Argument(e.to_string()))?;
+    value.save(&value_path).map_err(|e| CliError::Output {
+        path: value_path.clone(),
+        message: e.to_string(),
+    })?;
     write_curve(&args.out, &curve)?;
     let predicted = value.value(&nominal.states[0], 0);
     println!(

@@ -771,10 +771,12 @@ impl Checker {
             Some(w) => self.constant(w, "a weight").unwrap_or(f64::NAN),
             None => wl,
         };
-        for (w, e) in [
-            (wl, weight_lo),
-            (wh, weight_hi.as_ref().unwrap_or(weight_lo)),
-        ] {
+        // One weight for both sides is checked once.
+        let weights = match weight_hi {
+            Some(w_hi) => vec![(wl, weight_lo), (wh, w_hi)],
+            None => vec![(wl, weight_lo)],
+        };
+        for (w, e) in weights {
             if w < 0.0 {
                 self.diags.push(
                     Diagnostic::error("E007", e.span(), format!("penalty weight {w} is negative"))
@@ -788,7 +790,22 @@ impl Checker {
         let (plo, phi) = match plan {
             Some(p) => {
                 let (a, b) = self.band(p);
-                (a.max(lo), b.min(hi))
+                let (plo, phi) = (a.max(lo), b.min(hi));
+                if plo > phi {
+                    self.diags.push(
+                        Diagnostic::error(
+                            "E008",
+                            p.lo.as_ref().or(p.hi.as_ref()).map_or(p.span, |e| e.span()),
+                            format!(
+                                "planning band on `{}` is empty inside [{lo}, {hi}]",
+                                output.text
+                            ),
+                        )
+                        .label("empty planning band")
+                        .help("a planning band is a tighter band inside the soft band"),
+                    );
+                }
+                (plo, phi)
             }
             None => (lo, hi),
         };
