@@ -391,6 +391,21 @@ drop soft rh_pct
 "#
 );
 
+// `drop` names the kind of the term it removes; an infinite spread is no setting.
+bad!(
+    drop_of_the_wrong_kind_and_infinite_spread,
+    2,
+    r#"
+sample 30 [min]
+state temp [°C] = 15
+input heat [W m^-2] in [0, 100]
+der temp = (heat - temp) / 3600
+reward warmth [EUR] = temp
+drop cost warmth
+uncertainty redraw = season, spread = inf, params = marked
+"#
+);
+
 // ---- many at once ----------------------------------------------------------------------
 
 bad!(

@@ -300,7 +300,28 @@ fn collect(statements: Vec<Statement>, diags: &mut Vec<Diagnostic>) -> Decls {
             Stmt::Uncertainty { .. } => d.uncertainty = Some(s),
             Stmt::Drop { kind, name } => {
                 let k = if kind == "soft" { "soft" } else { "term" };
-                match index.remove(&(k.to_string(), name.text.clone())) {
+                let key = (k.to_string(), name.text.clone());
+                // `drop cost c` must not remove a `reward c`: the terms share one key.
+                let declared_kind = index.get(&key).and_then(|&i| match &d.items[i].stmt {
+                    Stmt::Term { kind, .. } => Some(kind.keyword()),
+                    _ => None,
+                });
+                if let Some(declared) = declared_kind.filter(|declared| declared != kind) {
+                    diags.push(
+                        Diagnostic::error(
+                            "E014",
+                            name.span,
+                            format!(
+                                "there is no {kind} `{}` to drop; it is a {declared}",
+                                name.text
+                            ),
+                        )
+                        .label("declared with another kind")
+                        .help(format!("write `drop {declared} {}`", name.text)),
+                    );
+                    continue;
+                }
+                match index.remove(&key) {
                     Some(i) => {
                         d.items[i].stmt = Stmt::Drop {
                             kind: kind.clone(),
@@ -940,7 +961,7 @@ impl Checker {
                     true
                 }
                 ("spread", num) => match num.parse::<f64>() {
-                    Ok(x) if x > 0.0 => {
+                    Ok(x) if x > 0.0 && x.is_finite() => {
                         u.spread = x;
                         true
                     }
