@@ -285,15 +285,15 @@ impl Sqp {
             .fold(0.0, |a, (d, range)| a.max(d.abs() / range))
     }
 
-    /// Whether the QP step in `work.step` (merit slope `slope`) is negligible: tiny against
-    /// every variable's range, or, from a feasible point, predicting a change of the
+    /// Whether a QP step of relative size `size` (from `scaled_step`) and merit slope
+    /// `slope` is negligible: tiny against every variable's range, or, from a feasible
+    /// point (ℓ₁ violation `violation`), predicting a change of the
     /// merit below `flat_slope`. The QP is solved to about 1e-8 relative accuracy, so near
     /// a stationary point its step is noise of that size in a random direction, and its
     /// predicted change sits at the rounding level of the objective: nothing a line search
     /// can confirm. Such a step is taken as it is, with the QP's multipliers.
-    fn negligible(&self, bounds: &Bounds, slope: f64, violation: f64, flat_slope: f64) -> bool {
-        self.scaled_step(bounds, &self.work.step) <= 1e-9
-            || (violation <= flat_slope && slope.abs() <= flat_slope)
+    fn negligible(size: f64, slope: f64, violation: f64, flat_slope: f64) -> bool {
+        size <= 1e-9 || (violation <= flat_slope && slope.abs() <= flat_slope)
     }
 
     /// A QP direction at `x` within `radius`: from the exact Hessian when clarabel solves
@@ -339,7 +339,8 @@ impl Sqp {
             let gd: f64 = w.gradient.iter().zip(&w.step).map(|(g, d)| g * d).sum();
             let slope = gd - *penalty * violation;
             // A negligible step means a stationary point: its multipliers are what counts.
-            let negligible = self.negligible(bounds, slope, violation, flat_slope);
+            let size = self.scaled_step(bounds, &self.work.step);
+            let negligible = Self::negligible(size, slope, violation, flat_slope);
             if last || slope < 0.0 || negligible {
                 self.work.curvature = curvature;
                 return Ok(slope);
@@ -601,7 +602,7 @@ impl Solver for Sqp {
                 let size = self.scaled_step(&bounds, &step);
                 // A negligible step is taken as it is: the point is (nearly) stationary and
                 // only the QP's multipliers are news; rounding would fail the Armijo test.
-                let negligible = self.negligible(&bounds, slope, violation, flat_slope);
+                let negligible = Self::negligible(size, slope, violation, flat_slope);
                 if negligible || sufficient(1.0, full) {
                     accepted = true;
                     break;
