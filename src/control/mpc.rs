@@ -162,18 +162,21 @@ impl Mpc {
             .shift_bound_multipliers(&last.bound_multipliers, &mut self.start_nu);
         // From a good warm start SQP needs two or three iterations; a warm solve that
         // needs many more is usually stuck, and a cold start is the better use of time.
-        self.solver.set_iteration_limit(self.warm_iteration_limit);
-        let solution = self.solver.solve(
+        Some(solve_capped(
+            self.solver.as_mut(),
+            self.warm_iteration_limit,
             &mut self.ocp,
             Start::warm(&self.start_x, &self.start_lambda, &self.start_nu),
-        );
-        self.solver.set_iteration_limit(None);
-        Some(solution)
+        ))
     }
 
     /// The guided solve: from the guidance's starting point, with the shifted multipliers
-    /// when the previous step's solution exists (capped like the warm start), else cold.
-    fn solve_guided(&mut self, observation: &Observation) -> Result<Solution, ControlError> {
+    /// when the previous step's solution exists (capped like the warm start), else cold
+    /// from a fresh roll-out of the guide. Returns the solution and whether it was warm.
+    fn solve_guided(
+        &mut self,
+        observation: &Observation,
+    ) -> Result<(Solution, bool), ControlError> {
         let previous = match (&self.last, self.last_age) {
             (Some(last), 1) => Some(last),
             _ => None,
@@ -188,21 +191,29 @@ impl Mpc {
             previous.map(|s| s.x.as_slice()),
             &mut self.start_x,
         )?;
-        let solution = match self.solve_warm(true) {
-            Some(s) => s,
-            None => self.solver.solve(&mut self.ocp, Start::cold(&self.start_x)),
-        };
-        Ok(solution)
+        Ok(match self.solve_warm(true) {
+            Some(s) => (s, true),
+            None => (
+                self.solver.solve(&mut self.ocp, Start::cold(&self.start_x)),
+                false,
+            ),
+        })
     }
 
     /// The cold start: from the held previous input, simulated. Under guidance, a fresh
     /// roll-out of the guide from the measured state, with the terminal region re-centred
     /// on it, is tried first (capped like the warm start): the held input's trajectory
     /// usually lies outside a region built around the shifted plan, and its first QP is
-    /// then infeasible. Returns the solution and the iterations of every attempt.
-    fn solve_cold(&mut self, observation: &Observation) -> Result<(Solution, usize), ControlError> {
+    /// then infeasible. The guided attempt is skipped when `guide_tried` (the step's first
+    /// solve already started from that roll-out, and would fail the same way). Returns the
+    /// solution and the iterations of every attempt.
+    fn solve_cold(
+        &mut self,
+        observation: &Observation,
+        guide_tried: bool,
+    ) -> Result<(Solution, usize), ControlError> {
         let mut iterations = 0;
-        if let Some(guidance) = self.guidance.as_mut() {
+        if let Some(guidance) = self.guidance.as_mut().filter(|_| !guide_tried) {
             guidance.prepare(
                 &mut self.ocp,
                 observation,
@@ -210,9 +221,12 @@ impl Mpc {
                 None,
                 &mut self.start_x,
             )?;
-            self.solver.set_iteration_limit(self.warm_iteration_limit);
-            let guided = self.solver.solve(&mut self.ocp, Start::cold(&self.start_x));
-            self.solver.set_iteration_limit(None);
+            let guided = solve_capped(
+                self.solver.as_mut(),
+                self.warm_iteration_limit,
+                &mut self.ocp,
+                Start::cold(&self.start_x),
+            );
             if guided.status.is_success() {
                 let n = guided.stats.iterations;
                 return Ok((guided, n));
@@ -249,6 +263,19 @@ impl Mpc {
     }
 }
 
+/// A solve capped at `limit` iterations; the cap is lifted afterwards.
+fn solve_capped(
+    solver: &mut dyn Solver,
+    limit: Option<usize>,
+    ocp: &mut Ocp,
+    start: Start<'_>,
+) -> Solution {
+    solver.set_iteration_limit(limit);
+    let solution = solver.solve(ocp, start);
+    solver.set_iteration_limit(None);
+    solution
+}
+
 impl Controller for Mpc {
     fn name(&self) -> String {
         match &self.guidance {
@@ -271,9 +298,12 @@ impl Controller for Mpc {
         self.last_age += 1;
         let mut iterations = 0;
         let mut fallback = None;
-        let guided = self.guidance.is_some();
-        let mut solution = if guided {
-            Some(self.solve_guided(observation)?)
+        // Whether the first solve already started from a fresh roll-out of the guide.
+        let mut guide_tried = false;
+        let mut solution = if self.guidance.is_some() {
+            let (s, warm) = self.solve_guided(observation)?;
+            guide_tried = !warm;
+            Some(s)
         } else {
             self.solve_warm(false)
         };
@@ -282,7 +312,7 @@ impl Controller for Mpc {
             iterations += s.stats.iterations;
         }
         if solution.as_ref().is_none_or(|s| !s.status.is_success()) {
-            let (cold, cold_iterations) = self.solve_cold(observation)?;
+            let (cold, cold_iterations) = self.solve_cold(observation, guide_tried)?;
             iterations += cold_iterations;
             if warm_failed {
                 fallback = Some("cold_start".to_string());
