@@ -204,8 +204,9 @@ fn terminal_region_leaves_variable_scales_alone() {
     let (mut ocp, x, _) = problem(3);
     let n = ocp.n_vars();
     let scales = |ocp: &Ocp| {
-        let mut s = vec![0.0; n];
-        ocp.var_scales(&mut s);
+        let (mut lower, mut upper, mut s) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        ocp.var_bounds(&mut lower, &mut upper);
+        ocp.var_scales(&lower, &upper, &mut s);
         s
     };
     let free = scales(&ocp);

@@ -133,15 +133,13 @@ pub trait Nlp {
     /// A starting point when the caller has none.
     fn initial_point(&mut self, x: &mut [f64]);
 
-    /// Typical size of each variable, which a solver's regularisation is scaled by: by
-    /// default the range of a variable bounded on both sides, else 1. A problem whose
-    /// bounds are sometimes much tighter than the variable's natural range (a terminal
-    /// region) overrides this, so that the tight box does not inflate the regularisation.
-    fn var_scales(&self, scale: &mut [f64]) {
-        let n = scale.len();
-        let (mut lower, mut upper) = (vec![0.0; n], vec![0.0; n]);
-        self.var_bounds(&mut lower, &mut upper);
-        ranges_into(&lower, &upper, scale);
+    /// Typical size of each variable, which a solver's regularisation is scaled by, given
+    /// the bounds [`Nlp::var_bounds`] wrote: by default the range of a variable bounded on
+    /// both sides, else 1. A problem whose bounds are sometimes much tighter than the
+    /// variable's natural range (a terminal region) overrides this, so that the tight box
+    /// does not inflate the regularisation.
+    fn var_scales(&self, lower: &[f64], upper: &[f64], scale: &mut [f64]) {
+        ranges_into(lower, upper, scale);
     }
 
     /// `f(x)`.

@@ -861,7 +861,7 @@ impl Nlp for Ocp {
     /// would otherwise multiply the solver's Levenberg–Marquardt term on `x_N` and
     /// `u_{N−1}` by the inverse square of its width (10⁴ at ε = 5 %), and that term, no
     /// longer negligible beside the curvature, slows Newton's method to a linear rate.
-    fn var_scales(&self, scale: &mut [f64]) {
+    fn var_scales(&self, _lower: &[f64], _upper: &[f64], scale: &mut [f64]) {
         let n = scale.len();
         let (mut lower, mut upper) = (vec![0.0; n], vec![0.0; n]);
         self.bounds_without_region(&mut lower, &mut upper);

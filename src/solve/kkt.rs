@@ -73,7 +73,7 @@ impl Bounds {
             scale: vec![1.0; n],
         };
         nlp.var_bounds(&mut b.x_lower, &mut b.x_upper);
-        nlp.var_scales(&mut b.scale);
+        nlp.var_scales(&b.x_lower, &b.x_upper, &mut b.scale);
         nlp.con_bounds(&mut b.g_lower, &mut b.g_upper);
         b
     }
