@@ -6,7 +6,7 @@ use crate::cli::{load_model, CliError};
 use crate::control::Mpc;
 use crate::model::Plant;
 use crate::nlp::Bands;
-use crate::solve::{Solver, Sqp};
+use crate::solve::{Ipm, Solver, Sqp};
 use clap::{Args, ValueEnum};
 use serde_json::json;
 use std::path::PathBuf;
@@ -15,7 +15,9 @@ use std::sync::Arc;
 /// The NLP back-ends.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum SolverChoice {
-    /// Pure-Rust SQP with clarabel sub-problems (default).
+    /// Pure-Rust interior point, stage by stage (Riccati recursion), exact Hessian.
+    Ipm,
+    /// Pure-Rust SQP with clarabel sub-problems.
     Sqp,
     /// The system's IPOPT (needs a build with `--features ipopt`).
     Ipopt,
@@ -121,6 +123,7 @@ pub fn parse_horizon(text: &str, sample_period_s: f64) -> Result<usize, CliError
 /// The chosen back-end, or a message saying how to get it.
 pub fn make_solver(choice: SolverChoice) -> Result<Box<dyn Solver>, CliError> {
     match choice {
+        SolverChoice::Ipm => Ok(Box::new(Ipm::default())),
         SolverChoice::Sqp => Ok(Box::new(Sqp::default())),
         #[cfg(feature = "ipopt")]
         SolverChoice::Ipopt => Ok(Box::new(crate::solve::Ipopt::new(

@@ -9,7 +9,7 @@ use crate::control::{InputTable, Mpc};
 use crate::model::Plant;
 use crate::sim::optimum::season_optimum;
 use crate::sim::season::{run_season, SeasonConfig, StepLog};
-use crate::solve::{Solver, Sqp, SqpOptions};
+use crate::solve::{Ipm, IpmOptions, Solver, Sqp, SqpOptions};
 use clap::Args;
 use serde_json::json;
 use std::path::PathBuf;
@@ -23,8 +23,8 @@ pub struct OptimumArgs {
     /// Horizon of the closed-loop MPC run that initialises the optimum.
     #[arg(long, value_name = "H", default_value = "1h")]
     pub init_horizon: String,
-    /// NLP back-end for the season NLP (default: ipopt where built with it, it is much
-    /// faster on this large NLP; sqp otherwise).
+    /// NLP back-end for the season NLP (default: ipopt where built with it; otherwise the
+    /// pure-Rust interior point, which factorises the 1920 stages by a Riccati recursion).
     #[arg(long, value_enum)]
     pub solver: Option<SolverChoice>,
     /// Iteration limit of the season NLP.
@@ -68,9 +68,14 @@ pub fn run(args: &OptimumArgs) -> Result<(), CliError> {
     let choice = args.solver.unwrap_or(if cfg!(feature = "ipopt") {
         SolverChoice::Ipopt
     } else {
-        SolverChoice::Sqp
+        SolverChoice::Ipm
     });
     let mut solver: Box<dyn Solver> = match choice {
+        SolverChoice::Ipm => Box::new(Ipm::new(IpmOptions {
+            max_iterations: args.max_iterations,
+            trace: true,
+            ..IpmOptions::default()
+        })),
         SolverChoice::Sqp => Box::new(Sqp::new(SqpOptions {
             max_iterations: args.max_iterations,
             trace: true,

@@ -3,7 +3,8 @@
 //!
 //! The solve starts from the previous solution shifted by one step (primal and dual). Its
 //! status is checked every step. The warm solve is capped at [`Mpc::warm_iteration_limit`]
-//! iterations (15): from a shifted solution SQP needs two or three, and one that needs many
+//! iterations (the solver's [`Solver::warm_iteration_budget`]: 15 for SQP, 40 for the
+//! interior-point method): from a shifted solution SQP needs two or three, and one that needs many
 //! more is usually stuck on a flat stretch of the economic cost, where a cold start is the
 //! better use of time. When it fails, the controller falls back, in this order:
 //!
@@ -80,14 +81,14 @@ impl Mpc {
         let (n, m) = (ocp.n_vars(), ocp.n_cons());
         Ok(Mpc {
             ocp,
-            solver,
             last: None,
             last_age: 0,
             forecast: Vec::new(),
             start_x: vec![0.0; n],
             start_lambda: vec![0.0; m],
             start_nu: vec![0.0; n],
-            warm_iteration_limit: Some(15),
+            warm_iteration_limit: Some(solver.warm_iteration_budget()),
+            solver,
             guidance: None,
         })
     }

@@ -13,9 +13,11 @@
 //! Hessian pattern holds the lower triangle only (`row ≥ col`).
 
 mod ocp;
+mod stages;
 mod terminal;
 
 pub use ocp::{Bands, Ocp, OcpError, OcpLayout};
+pub use stages::Stages;
 pub use terminal::{LinearTerminalCost, TerminalBox, TerminalCost};
 
 use std::ops::Range;
@@ -170,6 +172,12 @@ pub trait Nlp {
     /// lies inside one block. The default is one block of all variables.
     fn hessian_blocks(&self) -> Vec<Range<usize>> {
         std::iter::once(0..self.n_vars()).collect()
+    }
+
+    /// The stage structure of an optimal-control problem, for solvers that factorise
+    /// stage by stage ([`Stages`]); `None` (the default) for a problem without one.
+    fn stages(&self) -> Option<Stages> {
+        None
     }
 
     /// Maps `x` onto (or closer to) the feasible set cheaply, if the problem knows how: an

@@ -20,7 +20,7 @@
 //! dense Hessian block of a stage come out together, and no Hessian of the whole NLP is
 //! ever formed.
 
-use super::{Nlp, Pattern, TerminalBox, TerminalCost};
+use super::{Nlp, Pattern, Stages, TerminalBox, TerminalCost};
 use crate::graph::{Derivatives, Workspace};
 use crate::model::Plant;
 use std::ops::Range;
@@ -951,6 +951,25 @@ impl Nlp for Ocp {
         }
         self.set_slacks(x);
         true
+    }
+
+    /// States `x_1 … x_N` (the measured `x_0` is no variable), controls `(u_j, s_j)`,
+    /// dynamics rows `x_{j+1} − F(x_j, u_j) = 0`; the rate rows link `u_j` to `u_{j−1}`.
+    fn stages(&self) -> Option<Stages> {
+        let l = self.layout;
+        let n = l.horizon;
+        let states = std::iter::once(0..0)
+            .chain((1..=n).map(|j| l.x(j)..l.x(j) + l.nx))
+            .collect();
+        let controls = (0..n).map(|j| l.u(j)..l.u(j) + l.nu + l.ns).collect();
+        let dynamics = (0..n)
+            .map(|j| l.dynamics_row(j)..l.dynamics_row(j) + l.nx)
+            .collect();
+        Some(Stages {
+            states,
+            controls,
+            dynamics,
+        })
     }
 
     fn hessian_blocks(&self) -> Vec<Range<usize>> {

@@ -1,0 +1,1324 @@
+//! A primal-dual interior-point method that solves an optimal-control problem stage by
+//! stage, with the exact Hessian taken as it is (fatrop's design, IPOPT's algorithm).
+//!
+//! * Inequalities: every constraint row that is not a dynamics row gets a slack `t` with
+//!   the row's bounds (`c(w) − t = 0`); bounds on variables and slacks enter a
+//!   logarithmic barrier `−μ Σ ln(·)`. Slacks and bound multipliers are eliminated from
+//!   the primal-dual Newton system, which leaves the Hessian of the Lagrangian plus
+//!   diagonal `Σ` terms and `Jᵀ Σ J` over the inequality rows, and the dynamics.
+//! * Newton step: a Riccati recursion over the stages ([`super::riccati`],
+//!   [`crate::nlp::Stages`]), `O(N)`; its Cholesky factorisations are the inertia test.
+//!   When the reduced Hessian is not positive definite, `δ / D²` (`D` a variable's range)
+//!   is added to the diagonal, with IPOPT's schedule (1e-4 the first time, a third of the
+//!   last value after that, ×100 or ×8 per failure). No convexification: where the
+//!   reduced Hessian is positive definite the exact Newton step is taken, and the
+//!   convergence is quadratic.
+//! * Globalisation: IPOPT's filter line search on the barrier objective and the ℓ₁
+//!   constraint violation, fraction to the boundary `τ = max(0.99, 1 − μ)`, up to four
+//!   second-order corrections, and a feasibility restoration by the problem's own
+//!   [`Nlp::restore_feasibility`] (an optimal-control problem re-simulates its states)
+//!   when the step gets too short.
+//! * Barrier parameter: IPOPT's monotone rule (`μ ← max(ε/10, min(μ/5, μ^1.5))` once the
+//!   barrier problem is solved to `10 μ`); a cold start begins at `μ = 0.1`, a warm start
+//!   (multipliers given) at [`IpmOptions::warm_start_mu`], with the point pushed that far
+//!   inside its bounds and the bound multipliers raised to match.
+//!
+//! The problem must say its stages ([`Nlp::stages`]); a problem without them ends at once
+//! with [`SolveStatus::NumericalError`]. A line search that finds no acceptable step, and
+//! a restoration that cannot lower the violation, end the solve as
+//! [`SolveStatus::Infeasible`] while the constraints are violated (above the acceptable
+//! tolerance), else as acceptable or as a numerical error.
+
+// The iterate's parallel vectors (values, bounds, multipliers, directions) are updated
+// index by index; a range loop says that more plainly than zipping five iterators.
+#![allow(clippy::needless_range_loop)]
+
+mod filter;
+mod structure;
+
+use super::kkt::{residuals_of, Bounds, PointInfo};
+use super::riccati::Riccati;
+use super::{KktResiduals, Solution, SolveStats, SolveStatus, Solver, Start};
+use crate::nlp::Nlp;
+use filter::Filter;
+use std::time::Instant;
+use structure::StageMap;
+
+/// Tuning of [`Ipm`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct IpmOptions {
+    /// Iteration limit of a solve.
+    pub max_iterations: usize,
+    /// KKT residual (IPOPT's scaled optimality error, with `μ = 0`) at which the solve is
+    /// optimal.
+    pub tolerance: f64,
+    /// KKT residual accepted when the method cannot go further or reaches its limit, or
+    /// after `acceptable_iterations` iterations in a row below it.
+    pub acceptable_tolerance: f64,
+    /// The run of iterations `acceptable_tolerance` asks for.
+    pub acceptable_iterations: usize,
+    /// The barrier parameter of a cold start.
+    pub initial_mu: f64,
+    /// The barrier parameter of a warm start (a start with multipliers).
+    pub warm_start_mu: f64,
+    /// How far inside its bounds a cold start is pushed, relative to the bound's size.
+    pub bound_push: f64,
+    /// How far inside its bounds a warm start is pushed, relative to the bound's size.
+    pub warm_push: f64,
+    /// Print one line per iteration to standard error.
+    pub trace: bool,
+}
+
+impl Default for IpmOptions {
+    fn default() -> Self {
+        IpmOptions {
+            max_iterations: 200,
+            tolerance: 1e-8,
+            acceptable_tolerance: 1e-6,
+            acceptable_iterations: 10,
+            initial_mu: 0.1,
+            warm_start_mu: 1e-6,
+            bound_push: 1e-2,
+            warm_push: 1e-4,
+            trace: false,
+        }
+    }
+}
+
+/// The pure-Rust structure-exploiting interior-point back-end.
+pub struct Ipm {
+    /// Its tuning; may be changed between solves.
+    pub options: IpmOptions,
+    iteration_limit: Option<usize>,
+    /// The stage map and the Riccati workspace, kept while the problem's shape is the same.
+    layout: Option<(StageMap, Riccati, usize, usize)>,
+    /// The last inertia correction `δ` (0 when none was needed).
+    last_delta: f64,
+    /// Inertia corrections made by the last solve.
+    corrections: usize,
+}
+
+impl Default for Ipm {
+    fn default() -> Self {
+        Ipm::new(IpmOptions::default())
+    }
+}
+
+/// The bounds the barrier keeps away from: variables and inequality slacks.
+struct Sides {
+    lower: Vec<f64>,
+    upper: Vec<f64>,
+}
+
+impl Sides {
+    /// IPOPT's slack move: a bound closer to its value than the rounding level (`1e-12`
+    /// relative) is moved out to that distance, so that no slack rounds to zero.
+    fn move_bounds(&mut self, v: &[f64], active: impl Fn(usize) -> bool) {
+        for (i, &x) in v.iter().enumerate() {
+            if !active(i) {
+                continue;
+            }
+            let lo = self.lower[i];
+            if lo.is_finite() {
+                let least = 1e-12 * lo.abs().max(1.0);
+                if x - lo < least {
+                    self.lower[i] = x - least;
+                }
+            }
+            let hi = self.upper[i];
+            if hi.is_finite() {
+                let least = 1e-12 * hi.abs().max(1.0);
+                if hi - x < least {
+                    self.upper[i] = x + least;
+                }
+            }
+        }
+    }
+
+    fn slack_lower(&self, i: usize, v: f64) -> f64 {
+        v - self.lower[i]
+    }
+    fn slack_upper(&self, i: usize, v: f64) -> f64 {
+        self.upper[i] - v
+    }
+}
+
+/// Bounds relaxed where they are equal (a fixed variable keeps a sliver of interior).
+fn relaxed(lower: &[f64], upper: &[f64]) -> Sides {
+    let mut lo = lower.to_vec();
+    let mut hi = upper.to_vec();
+    for (l, h) in lo.iter_mut().zip(hi.iter_mut()) {
+        if *h - *l <= 1e-12 * l.abs().max(1.0) {
+            *l -= 1e-8 * l.abs().max(1.0);
+            *h += 1e-8 * h.abs().max(1.0);
+        }
+    }
+    Sides {
+        lower: lo,
+        upper: hi,
+    }
+}
+
+/// `v` moved inside `[lo, hi]` by IPOPT's bound push with fraction `kappa`.
+fn pushed(v: f64, lo: f64, hi: f64, kappa: f64) -> f64 {
+    let range = hi - lo;
+    let mut v = v;
+    if lo.is_finite() {
+        let p = (kappa * lo.abs().max(1.0)).min(if range.is_finite() {
+            kappa * range
+        } else {
+            f64::INFINITY
+        });
+        v = v.max(lo + p);
+    }
+    if hi.is_finite() {
+        let p = (kappa * hi.abs().max(1.0)).min(if range.is_finite() {
+            kappa * range
+        } else {
+            f64::INFINITY
+        });
+        v = v.min(hi - p);
+    }
+    if lo.is_finite() && hi.is_finite() && !(v > lo && v < hi) {
+        v = 0.5 * (lo + hi);
+    }
+    v
+}
+
+/// The largest step in `(0, 1]` along `d` that keeps every slack of `v` in `[lo, hi]` at
+/// least the fraction `1 − tau` of its value, and above the rounding level of its bound
+/// (`1e-12` relative; IPOPT moves such bounds instead): with `τ` near 1 a slack of an
+/// active bound could otherwise round to zero.
+fn max_step(v: &[f64], d: &[f64], sides: &Sides, tau: f64, active: impl Fn(usize) -> bool) -> f64 {
+    let floor =
+        |s: f64, bound: f64| ((1.0 - tau) * s).max((1e-12 * bound.abs().max(1.0)).min(0.01 * s));
+    let mut alpha: f64 = 1.0;
+    for i in 0..v.len() {
+        if !active(i) {
+            continue;
+        }
+        if sides.lower[i].is_finite() && d[i] < 0.0 {
+            let s = sides.slack_lower(i, v[i]);
+            alpha = alpha.min((s - floor(s, sides.lower[i])) / -d[i]);
+        }
+        if sides.upper[i].is_finite() && d[i] > 0.0 {
+            let s = sides.slack_upper(i, v[i]);
+            alpha = alpha.min((s - floor(s, sides.upper[i])) / d[i]);
+        }
+    }
+    alpha.max(0.0)
+}
+
+/// The largest step that keeps multipliers `z` (with directions `dz`) at least `1 − tau`
+/// of their value.
+fn max_dual_step(z: &[f64], dz: &[f64], tau: f64) -> f64 {
+    z.iter().zip(dz).fold(1.0_f64, |a, (&z, &d)| {
+        if d < 0.0 && z > 0.0 {
+            a.min(-tau * z / d)
+        } else {
+            a
+        }
+    })
+}
+
+/// The primal-dual iterate.
+#[derive(Debug, Clone)]
+struct Iterate {
+    w: Vec<f64>,
+    /// Slacks of the inequality rows (unused on dynamics rows).
+    t: Vec<f64>,
+    lambda: Vec<f64>,
+    zl: Vec<f64>,
+    zu: Vec<f64>,
+    vl: Vec<f64>,
+    vu: Vec<f64>,
+}
+
+/// Values at the current point.
+struct Eval {
+    f: f64,
+    c: Vec<f64>,
+    gradient: Vec<f64>,
+    jacobian: Vec<f64>,
+    hessian: Vec<f64>,
+}
+
+/// The Newton direction.
+#[derive(Debug, Clone, Default)]
+struct Direction {
+    w: Vec<f64>,
+    t: Vec<f64>,
+    lambda: Vec<f64>,
+    zl: Vec<f64>,
+    zu: Vec<f64>,
+    vl: Vec<f64>,
+    vu: Vec<f64>,
+}
+
+impl Ipm {
+    /// An interior-point solver with `options`.
+    pub fn new(options: IpmOptions) -> Ipm {
+        Ipm {
+            options,
+            iteration_limit: None,
+            layout: None,
+            last_delta: 0.0,
+            corrections: 0,
+        }
+    }
+
+    /// Inertia corrections (factorisations with `δ > 0` that were used) of the last
+    /// solve.
+    pub fn inertia_corrections(&self) -> usize {
+        self.corrections
+    }
+
+    /// Factorises with the smallest `δ` of IPOPT's schedule that gives the right inertia.
+    fn factor(riccati: &mut Riccati, last_delta: &mut f64) -> Option<f64> {
+        if riccati.factor(0.0).is_ok() {
+            return Some(0.0);
+        }
+        let mut delta = if *last_delta == 0.0 {
+            1e-4
+        } else {
+            (*last_delta / 3.0).max(1e-20)
+        };
+        let growth = if *last_delta == 0.0 { 100.0 } else { 8.0 };
+        while delta <= 1e20 {
+            if riccati.factor(delta).is_ok() {
+                *last_delta = delta;
+                return Some(delta);
+            }
+            delta *= growth;
+        }
+        None
+    }
+}
+
+/// Everything of one solve that does not change between iterations.
+struct Setup {
+    n: usize,
+    m: usize,
+    /// Variable bounds as the barrier sees them.
+    vars: Sides,
+    /// Row bounds of the inequality rows (±∞ on dynamics rows, which have none).
+    rows: Sides,
+    /// Dynamics rows' right-hand side (`g_l = g_u`).
+    target: Vec<f64>,
+    is_dynamics: Vec<bool>,
+    /// `1 / D²` per variable.
+    shift: Vec<f64>,
+    bounds: Bounds,
+}
+
+impl Setup {
+    /// `θ`: ℓ₁ violation of the dynamics and of `c − t` on the other rows.
+    fn violation(&self, c: &[f64], t: &[f64]) -> f64 {
+        (0..self.m)
+            .map(|r| {
+                if self.is_dynamics[r] {
+                    (c[r] - self.target[r]).abs()
+                } else {
+                    (c[r] - t[r]).abs()
+                }
+            })
+            .sum()
+    }
+
+    /// `φ = f − μ Σ ln(slacks)`.
+    fn barrier(&self, f: f64, w: &[f64], t: &[f64], mu: f64) -> f64 {
+        let mut sum = 0.0;
+        for (i, &v) in w.iter().enumerate() {
+            if self.vars.lower[i].is_finite() {
+                sum += self.vars.slack_lower(i, v).ln();
+            }
+            if self.vars.upper[i].is_finite() {
+                sum += self.vars.slack_upper(i, v).ln();
+            }
+        }
+        for (r, &v) in t.iter().enumerate() {
+            if self.is_dynamics[r] {
+                continue;
+            }
+            if self.rows.lower[r].is_finite() {
+                sum += self.rows.slack_lower(r, v).ln();
+            }
+            if self.rows.upper[r].is_finite() {
+                sum += self.rows.slack_upper(r, v).ln();
+            }
+        }
+        let phi = f - mu * sum;
+        if phi.is_nan() {
+            f64::INFINITY
+        } else {
+            phi
+        }
+    }
+}
+
+fn all_finite(values: &[f64]) -> bool {
+    values.iter().all(|v| v.is_finite())
+}
+
+impl Solver for Ipm {
+    fn name(&self) -> &'static str {
+        "ipm"
+    }
+
+    fn set_iteration_limit(&mut self, limit: Option<usize>) {
+        self.iteration_limit = limit;
+    }
+
+    fn warm_iteration_budget(&self) -> usize {
+        40
+    }
+
+    fn solve(&mut self, nlp: &mut dyn Nlp, start: Start<'_>) -> Solution {
+        let clock = Instant::now();
+        let (n, m) = (nlp.n_vars(), nlp.n_cons());
+        let bounds = Bounds::of(nlp);
+        let mut x = start.x.to_vec();
+        x.resize(n, 0.0);
+        let trace = self.options.trace;
+        let fail = |status, x: Vec<f64>| Solution {
+            status,
+            x,
+            multipliers: vec![0.0; m],
+            bound_multipliers: vec![0.0; n],
+            stats: SolveStats {
+                iterations: 0,
+                time_s: clock.elapsed().as_secs_f64(),
+                objective: f64::NAN,
+                kkt: KktResiduals::default(),
+            },
+        };
+        // The stage map, rebuilt when the problem's shape changed.
+        let shape = (n, m);
+        let fits = self
+            .layout
+            .as_ref()
+            .is_some_and(|(_, _, nn, mm)| (*nn, *mm) == shape);
+        if !fits {
+            let Some(stages) = nlp.stages() else {
+                return fail(SolveStatus::NumericalError, x);
+            };
+            match StageMap::new(&stages, n, m, nlp.jacobian_pattern(), nlp.hessian_pattern()) {
+                Ok(map) => {
+                    let riccati = map.riccati();
+                    self.layout = Some((map, riccati, n, m));
+                }
+                Err(_) => return fail(SolveStatus::NumericalError, x),
+            }
+        }
+        let Some((map, mut riccati, _, _)) = self.layout.take() else {
+            return fail(SolveStatus::NumericalError, x);
+        };
+        let solution = self.run(nlp, &map, &mut riccati, bounds, &mut x, start, clock);
+        self.layout = Some((map, riccati, n, m));
+        if trace {
+            eprintln!(
+                "ipm end: {:?} after {} iterations, KKT {:.1e}",
+                solution.status,
+                solution.stats.iterations,
+                solution.stats.kkt.max()
+            );
+        }
+        solution
+    }
+}
+
+impl Ipm {
+    #[allow(clippy::too_many_arguments)]
+    fn run(
+        &mut self,
+        nlp: &mut dyn Nlp,
+        map: &StageMap,
+        riccati: &mut Riccati,
+        bounds: Bounds,
+        x: &mut [f64],
+        start: Start<'_>,
+        clock: Instant,
+    ) -> Solution {
+        let (n, m) = (nlp.n_vars(), nlp.n_cons());
+        let opts = self.options.clone();
+        let max_iterations = self
+            .iteration_limit
+            .map_or(opts.max_iterations, |l| l.min(opts.max_iterations));
+        let is_dynamics: Vec<bool> = (0..m).map(|r| map.is_dynamics(r)).collect();
+        let mut row_lower = bounds.g_lower.clone();
+        let mut row_upper = bounds.g_upper.clone();
+        for r in 0..m {
+            if is_dynamics[r] {
+                row_lower[r] = f64::NEG_INFINITY;
+                row_upper[r] = f64::INFINITY;
+            }
+        }
+        let mut setup = Setup {
+            n,
+            m,
+            vars: relaxed(&bounds.x_lower, &bounds.x_upper),
+            rows: relaxed(&row_lower, &row_upper),
+            target: bounds.g_lower.clone(),
+            is_dynamics,
+            shift: bounds.scale.iter().map(|d| 1.0 / (d * d)).collect(),
+            bounds,
+        };
+        self.corrections = 0;
+        self.last_delta = 0.0;
+        let warm = start.multipliers.is_some() && start.bound_multipliers.is_some();
+        let mut mu = if warm {
+            opts.warm_start_mu
+        } else {
+            opts.initial_mu
+        };
+        let kappa = if warm {
+            opts.warm_push
+        } else {
+            opts.bound_push
+        };
+        let mu_min = opts.tolerance / 10.0;
+
+        // The starting iterate.
+        let mut it = Iterate {
+            w: x.to_vec(),
+            t: vec![0.0; m],
+            lambda: start.multipliers.map_or(vec![0.0; m], <[f64]>::to_vec),
+            zl: vec![0.0; n],
+            zu: vec![0.0; n],
+            vl: vec![0.0; m],
+            vu: vec![0.0; m],
+        };
+        it.lambda.resize(m, 0.0);
+        let nu = start
+            .bound_multipliers
+            .map_or(vec![0.0; n], <[f64]>::to_vec);
+        for i in 0..n {
+            let (lo, hi) = (setup.vars.lower[i], setup.vars.upper[i]);
+            let k = if warm {
+                kappa * setup.bounds.scale[i].clamp(1e-3, 1.0)
+            } else {
+                kappa
+            };
+            it.w[i] = pushed(it.w[i], lo, hi, k);
+            if lo.is_finite() {
+                let s = it.w[i] - lo;
+                it.zl[i] = (-nu.get(i).copied().unwrap_or(0.0)).max(mu / s);
+            }
+            if hi.is_finite() {
+                let s = hi - it.w[i];
+                it.zu[i] = nu.get(i).copied().unwrap_or(0.0).max(mu / s);
+            }
+        }
+        let mut c = vec![0.0; m];
+        let f0 = nlp.objective(&it.w);
+        nlp.constraints(&it.w, &mut c);
+        if !(f0.is_finite() && all_finite(&c)) {
+            return self.finish(
+                nlp,
+                &setup,
+                it,
+                SolveStatus::InvalidNumber,
+                0,
+                f64::NAN,
+                clock,
+            );
+        }
+        for r in 0..m {
+            if setup.is_dynamics[r] {
+                continue;
+            }
+            let (lo, hi) = (setup.rows.lower[r], setup.rows.upper[r]);
+            it.t[r] = pushed(c[r], lo, hi, kappa);
+            let lam = it.lambda[r];
+            if lo.is_finite() {
+                let s = it.t[r] - lo;
+                it.vl[r] = (-lam).max(mu / s);
+            }
+            if hi.is_finite() {
+                let s = hi - it.t[r];
+                it.vu[r] = lam.max(mu / s);
+            }
+        }
+
+        let jp = nlp.jacobian_pattern().clone();
+        let hp_len = nlp.hessian_pattern().len();
+        let mut ev = Eval {
+            f: 0.0,
+            c: vec![0.0; m],
+            gradient: vec![0.0; n],
+            jacobian: vec![0.0; jp.len()],
+            hessian: vec![0.0; hp_len],
+        };
+        let mut filter = Filter::default();
+        let mut filter_fresh = true;
+        let mut acceptable_run = 0;
+        let mut d = Direction {
+            w: vec![0.0; n],
+            t: vec![0.0; m],
+            lambda: vec![0.0; m],
+            zl: vec![0.0; n],
+            zu: vec![0.0; n],
+            vl: vec![0.0; m],
+            vu: vec![0.0; m],
+        };
+        let mut scratch = vec![0.0; n];
+        let mut diag = vec![0.0; n];
+        let mut sigma_t = vec![0.0; m];
+        let mut condensed = vec![0.0; n];
+        let mut residual_i = vec![0.0; m];
+        let mut trial_w = vec![0.0; n];
+        let mut trial_t = vec![0.0; m];
+        let mut trial_c = vec![0.0; m];
+        let mut new_lambda = vec![0.0; m];
+
+        for iteration in 0..=max_iterations {
+            ev.f = nlp.evaluate_all(
+                &it.w,
+                1.0,
+                &it.lambda,
+                &mut ev.c,
+                &mut ev.gradient,
+                &mut ev.jacobian,
+                &mut ev.hessian,
+            );
+            let finite = ev.f.is_finite()
+                && all_finite(&ev.c)
+                && all_finite(&ev.gradient)
+                && all_finite(&ev.jacobian)
+                && all_finite(&ev.hessian);
+            if !finite {
+                return self.finish(
+                    nlp,
+                    &setup,
+                    it,
+                    SolveStatus::InvalidNumber,
+                    iteration,
+                    ev.f,
+                    clock,
+                );
+            }
+            // Optimality errors with μ = 0 and with the current μ.
+            let error = |mu_target: f64, it: &Iterate, scratch: &mut [f64]| -> f64 {
+                optimality_error(&setup, &jp, &ev, it, mu_target, scratch)
+            };
+            let e0 = error(0.0, &it, &mut scratch);
+            acceptable_run = if e0 <= opts.acceptable_tolerance {
+                acceptable_run + 1
+            } else {
+                0
+            };
+            if e0 <= opts.tolerance {
+                return self.finish(
+                    nlp,
+                    &setup,
+                    it,
+                    SolveStatus::Optimal,
+                    iteration,
+                    ev.f,
+                    clock,
+                );
+            }
+            if acceptable_run > opts.acceptable_iterations || iteration == max_iterations {
+                let status = if e0 <= opts.acceptable_tolerance {
+                    SolveStatus::Acceptable
+                } else {
+                    SolveStatus::MaxIterations
+                };
+                return self.finish(nlp, &setup, it, status, iteration, ev.f, clock);
+            }
+            // The barrier problem solved well enough: a smaller μ.
+            while mu > mu_min && error(mu, &it, &mut scratch) <= 10.0 * mu {
+                mu = mu_min.max((0.2 * mu).min(mu.powf(1.5)));
+                filter_fresh = true;
+            }
+            let theta = setup.violation(&ev.c, &it.t);
+            if filter_fresh {
+                filter.reset(theta);
+                filter_fresh = false;
+            }
+
+            // The condensed system.
+            for i in 0..n {
+                let mut sigma = 0.0;
+                let mut g = ev.gradient[i];
+                if setup.vars.lower[i].is_finite() {
+                    let s = setup.vars.slack_lower(i, it.w[i]);
+                    sigma += it.zl[i] / s;
+                    g -= mu / s;
+                }
+                if setup.vars.upper[i].is_finite() {
+                    let s = setup.vars.slack_upper(i, it.w[i]);
+                    sigma += it.zu[i] / s;
+                    g += mu / s;
+                }
+                diag[i] = sigma;
+                condensed[i] = g;
+            }
+            for r in 0..m {
+                sigma_t[r] = 0.0;
+                residual_i[r] = 0.0;
+                if setup.is_dynamics[r] {
+                    continue;
+                }
+                residual_i[r] = ev.c[r] - it.t[r];
+            }
+            let row_terms = barrier_row_terms(&setup, &it, mu, &mut sigma_t);
+            add_row_gradient(
+                &jp,
+                &ev.jacobian,
+                &setup,
+                &sigma_t,
+                &residual_i,
+                &row_terms,
+                &mut condensed,
+            );
+            map.fill_matrices(
+                riccati,
+                &ev.hessian,
+                &diag,
+                &ev.jacobian,
+                &sigma_t,
+                &setup.shift,
+            );
+            let mut dyn_residual = ev.c.clone();
+            for r in 0..m {
+                dyn_residual[r] -= setup.target[r];
+            }
+            map.fill_vectors(riccati, &condensed, &dyn_residual);
+            let Some(delta) = Self::factor(riccati, &mut self.last_delta) else {
+                return self.finish(
+                    nlp,
+                    &setup,
+                    it,
+                    SolveStatus::NumericalError,
+                    iteration,
+                    ev.f,
+                    clock,
+                );
+            };
+            if delta > 0.0 {
+                self.corrections += 1;
+            }
+            if !riccati.solve() {
+                return self.finish(
+                    nlp,
+                    &setup,
+                    it,
+                    SolveStatus::NumericalError,
+                    iteration,
+                    ev.f,
+                    clock,
+                );
+            }
+            new_lambda.copy_from_slice(&it.lambda);
+            map.read_solution(riccati, &mut d.w, &mut new_lambda);
+            complete_direction(
+                &setup,
+                &jp,
+                &ev.jacobian,
+                &it,
+                mu,
+                &sigma_t,
+                &residual_i,
+                &row_terms,
+                &new_lambda,
+                &mut d,
+            );
+            if !all_finite(&d.w) {
+                return self.finish(
+                    nlp,
+                    &setup,
+                    it,
+                    SolveStatus::NumericalError,
+                    iteration,
+                    ev.f,
+                    clock,
+                );
+            }
+            let tau = (1.0 - mu).max(0.99);
+            let alpha_max = max_step(&it.w, &d.w, &setup.vars, tau, |_| true).min(max_step(
+                &it.t,
+                &d.t,
+                &setup.rows,
+                tau,
+                |r| !setup.is_dynamics[r],
+            ));
+            let alpha_dual = max_dual_step(&it.zl, &d.zl, tau)
+                .min(max_dual_step(&it.zu, &d.zu, tau))
+                .min(max_dual_step(&it.vl, &d.vl, tau))
+                .min(max_dual_step(&it.vu, &d.vu, tau));
+
+            // Filter line search.
+            let phi = setup.barrier(ev.f, &it.w, &it.t, mu);
+            let slope = barrier_slope(&setup, &ev.gradient, &it, &d, mu);
+            let tiny =
+                d.w.iter()
+                    .zip(&it.w)
+                    .all(|(dw, w)| dw.abs() <= 1e-14 * (1.0 + w.abs()));
+            let alpha_min = filter.min_step(theta, slope);
+            let mut alpha = alpha_max;
+            let mut accepted = None;
+            let mut first = true;
+            while alpha >= alpha_min || tiny {
+                for i in 0..n {
+                    trial_w[i] = it.w[i] + alpha * d.w[i];
+                }
+                for r in 0..m {
+                    trial_t[r] = it.t[r] + alpha * d.t[r];
+                }
+                let f = nlp.objective(&trial_w);
+                nlp.constraints(&trial_w, &mut trial_c);
+                let trial_theta = setup.violation(&trial_c, &trial_t);
+                let trial_phi = setup.barrier(f, &trial_w, &trial_t, mu);
+                if tiny {
+                    accepted = Some(filter::Accepted::Either);
+                    break;
+                }
+                if opts.trace && first {
+                    eprintln!(
+                        "    trial α {alpha:.2e}: θ {theta:.3e} → {trial_theta:.3e}, φ {phi:.12e} → {trial_phi:.12e}, slope {slope:.2e}"
+                    );
+                }
+                if let Some(a) =
+                    filter.accepts((theta, phi), slope, alpha, (trial_theta, trial_phi))
+                {
+                    accepted = Some(a);
+                    break;
+                }
+                if first && trial_theta >= theta {
+                    // Second-order corrections against the Maratos effect.
+                    if let Some(a) = self.second_order_correction(
+                        nlp,
+                        map,
+                        riccati,
+                        &setup,
+                        &jp,
+                        &ev,
+                        &it,
+                        &d,
+                        alpha,
+                        theta,
+                        phi,
+                        slope,
+                        &filter,
+                        mu,
+                        &condensed,
+                        &sigma_t,
+                        &residual_i,
+                        &mut trial_w,
+                        &mut trial_t,
+                    ) {
+                        accepted = Some(a);
+                        break;
+                    }
+                }
+                first = false;
+                alpha *= 0.5;
+            }
+            let Some(kind) = accepted else {
+                // No acceptable step: the problem's own restoration, once per barrier
+                // problem, else the end.
+                if restore(nlp, &setup, &mut it, kappa, &mut trial_c) {
+                    filter.add(theta, phi);
+                    filter_fresh = true;
+                    continue;
+                }
+                let status = if e0 <= opts.acceptable_tolerance {
+                    SolveStatus::Acceptable
+                } else if theta > opts.acceptable_tolerance {
+                    // Stuck away from feasibility: the constraints cannot be met from here.
+                    SolveStatus::Infeasible
+                } else {
+                    SolveStatus::NumericalError
+                };
+                return self.finish(nlp, &setup, it, status, iteration, ev.f, clock);
+            };
+            if kind == filter::Accepted::Either {
+                filter.add(theta, phi);
+            }
+            if opts.trace {
+                eprintln!(
+                    "ipm {iteration:3} f {:.10e} err {e0:.1e} θ {theta:.1e} μ {mu:.1e} δ {delta:.1e} α {alpha:.2e}",
+                    ev.f
+                );
+            }
+            // Take the step (the trial point may be a corrected one).
+            it.w.copy_from_slice(&trial_w);
+            for r in 0..m {
+                if !setup.is_dynamics[r] {
+                    it.t[r] = trial_t[r];
+                }
+            }
+            let a = alpha.min(1.0);
+            for r in 0..m {
+                it.lambda[r] += a * d.lambda[r];
+            }
+            for i in 0..n {
+                it.zl[i] += alpha_dual * d.zl[i];
+                it.zu[i] += alpha_dual * d.zu[i];
+            }
+            for r in 0..m {
+                it.vl[r] += alpha_dual * d.vl[r];
+                it.vu[r] += alpha_dual * d.vu[r];
+            }
+            setup.vars.move_bounds(&it.w, |_| true);
+            let dynamics = setup.is_dynamics.clone();
+            setup.rows.move_bounds(&it.t, |r| !dynamics[r]);
+            safeguard_multipliers(&setup, &mut it, mu);
+        }
+        unreachable_end(self, nlp, &setup, it, max_iterations, clock)
+    }
+
+    /// Up to four second-order corrections of a rejected full step: the dynamics and row
+    /// residuals re-linearised at the trial point. On acceptance `trial_*` hold the
+    /// corrected point.
+    #[allow(clippy::too_many_arguments)]
+    fn second_order_correction(
+        &mut self,
+        nlp: &mut dyn Nlp,
+        map: &StageMap,
+        riccati: &mut Riccati,
+        setup: &Setup,
+        jp: &crate::nlp::Pattern,
+        ev: &Eval,
+        it: &Iterate,
+        d: &Direction,
+        alpha: f64,
+        theta: f64,
+        phi: f64,
+        slope: f64,
+        filter: &Filter,
+        mu: f64,
+        condensed: &[f64],
+        sigma_t: &[f64],
+        residual_i: &[f64],
+        trial_w: &mut [f64],
+        trial_t: &mut [f64],
+    ) -> Option<filter::Accepted> {
+        let (n, m) = (setup.n, setup.m);
+        let mut c_trial = vec![0.0; m];
+        nlp.constraints(trial_w, &mut c_trial);
+        let mut soc_dyn: Vec<f64> = (0..m)
+            .map(|r| alpha * (ev.c[r] - setup.target[r]) + (c_trial[r] - setup.target[r]))
+            .collect();
+        let mut soc_rows: Vec<f64> = (0..m)
+            .map(|r| {
+                if setup.is_dynamics[r] {
+                    0.0
+                } else {
+                    alpha * residual_i[r] + (c_trial[r] - trial_t[r])
+                }
+            })
+            .collect();
+        let mut theta_old = setup.violation(&c_trial, trial_t);
+        let mut alpha_soc = alpha;
+        let mut step = vec![0.0; n];
+        let mut lambda = it.lambda.clone();
+        let mut step_t = vec![0.0; m];
+        for _ in 0..4 {
+            // The condensed gradient with the corrected row residuals.
+            let mut gradient = condensed.to_vec();
+            for ((&r, &col), &v) in jp.rows.iter().zip(&jp.cols).zip(&ev.jacobian) {
+                if !setup.is_dynamics[r] {
+                    gradient[col] += v * sigma_t[r] * (soc_rows[r] - residual_i[r]);
+                }
+            }
+            map.fill_vectors(riccati, &gradient, &soc_dyn);
+            if !riccati.solve() {
+                return None;
+            }
+            map.read_solution(riccati, &mut step, &mut lambda);
+            step_t.fill(0.0);
+            for ((&r, &col), &v) in jp.rows.iter().zip(&jp.cols).zip(&ev.jacobian) {
+                if !setup.is_dynamics[r] {
+                    step_t[r] += v * step[col];
+                }
+            }
+            for r in 0..m {
+                if !setup.is_dynamics[r] {
+                    step_t[r] += soc_rows[r];
+                }
+            }
+            let tau = (1.0 - mu).max(0.99);
+            alpha_soc = max_step(&it.w, &step, &setup.vars, tau, |_| true).min(max_step(
+                &it.t,
+                &step_t,
+                &setup.rows,
+                tau,
+                |r| !setup.is_dynamics[r],
+            ));
+            for i in 0..n {
+                trial_w[i] = it.w[i] + alpha_soc * step[i];
+            }
+            for r in 0..m {
+                trial_t[r] = it.t[r] + alpha_soc * step_t[r];
+            }
+            let f = nlp.objective(trial_w);
+            nlp.constraints(trial_w, &mut c_trial);
+            let trial_theta = setup.violation(&c_trial, trial_t);
+            let trial_phi = setup.barrier(f, trial_w, trial_t, mu);
+            if let Some(a) = filter.accepts((theta, phi), slope, alpha, (trial_theta, trial_phi)) {
+                return Some(a);
+            }
+            if trial_theta > 0.99 * theta_old {
+                break;
+            }
+            theta_old = trial_theta;
+            for r in 0..m {
+                soc_dyn[r] = alpha_soc * soc_dyn[r] + (c_trial[r] - setup.target[r]);
+                if !setup.is_dynamics[r] {
+                    soc_rows[r] = alpha_soc * soc_rows[r] + (c_trial[r] - trial_t[r]);
+                }
+            }
+        }
+        let _ = (alpha_soc, d);
+        None
+    }
+
+    /// The solution in ghm's conventions, with its KKT residuals on the original bounds.
+    #[allow(clippy::too_many_arguments)]
+    fn finish(
+        &self,
+        nlp: &mut dyn Nlp,
+        setup: &Setup,
+        it: Iterate,
+        status: SolveStatus,
+        iterations: usize,
+        objective: f64,
+        clock: Instant,
+    ) -> Solution {
+        let (n, m) = (setup.n, setup.m);
+        let mut x = it.w;
+        // The relaxed bounds of fixed variables: back onto the true bounds.
+        for i in 0..n {
+            x[i] = x[i]
+                .max(setup.bounds.x_lower[i])
+                .min(setup.bounds.x_upper[i]);
+        }
+        let nu: Vec<f64> = (0..n).map(|i| it.zu[i] - it.zl[i]).collect();
+        let lambda = it.lambda;
+        let mut kkt = KktResiduals::default();
+        let mut objective = objective;
+        if status != SolveStatus::InvalidNumber && x.iter().all(|v| v.is_finite()) {
+            let mut g = vec![0.0; m];
+            let mut gradient = vec![0.0; n];
+            let pattern = nlp.jacobian_pattern().clone();
+            let mut jacobian = vec![0.0; pattern.len()];
+            objective = nlp.objective(&x);
+            nlp.constraints(&x, &mut g);
+            nlp.gradient(&x, &mut gradient);
+            nlp.jacobian_values(&x, &mut jacobian);
+            let mut scratch = vec![0.0; n];
+            kkt = residuals_of(
+                &PointInfo {
+                    x: &x,
+                    g: &g,
+                    gradient: &gradient,
+                    jacobian: &jacobian,
+                    multipliers: &lambda,
+                    bound_multipliers: &nu,
+                },
+                &pattern,
+                &setup.bounds,
+                &mut scratch,
+            );
+        }
+        Solution {
+            status,
+            x,
+            multipliers: lambda,
+            bound_multipliers: nu,
+            stats: SolveStats {
+                iterations,
+                time_s: clock.elapsed().as_secs_f64(),
+                objective,
+                kkt,
+            },
+        }
+    }
+}
+
+/// The loop always returns from inside; kept for the type checker.
+fn unreachable_end(
+    ipm: &Ipm,
+    nlp: &mut dyn Nlp,
+    setup: &Setup,
+    it: Iterate,
+    iterations: usize,
+    clock: Instant,
+) -> Solution {
+    ipm.finish(
+        nlp,
+        setup,
+        it,
+        SolveStatus::MaxIterations,
+        iterations,
+        f64::NAN,
+        clock,
+    )
+}
+
+/// IPOPT's optimality error `E_μ`: stationarity scaled by `s_d`, the constraint
+/// violation, complementarity against `μ` scaled by `s_c`.
+fn optimality_error(
+    setup: &Setup,
+    jp: &crate::nlp::Pattern,
+    ev: &Eval,
+    it: &Iterate,
+    mu: f64,
+    scratch: &mut [f64],
+) -> f64 {
+    let (n, m) = (setup.n, setup.m);
+    scratch.copy_from_slice(&ev.gradient);
+    for ((&r, &c), &v) in jp.rows.iter().zip(&jp.cols).zip(&ev.jacobian) {
+        scratch[c] += v * it.lambda[r];
+    }
+    let mut stationarity = 0.0_f64;
+    let mut complementarity = 0.0_f64;
+    let mut primal = 0.0_f64;
+    let mut multiplier_sum = 0.0;
+    let mut multiplier_count = 0usize;
+    let mut bound_sum = 0.0;
+    let mut bound_count = 0usize;
+    for (i, s) in scratch.iter().enumerate().take(n) {
+        stationarity = stationarity.max((s - it.zl[i] + it.zu[i]).abs());
+        if setup.vars.lower[i].is_finite() {
+            complementarity =
+                complementarity.max((it.zl[i] * setup.vars.slack_lower(i, it.w[i]) - mu).abs());
+            bound_sum += it.zl[i];
+            bound_count += 1;
+        }
+        if setup.vars.upper[i].is_finite() {
+            complementarity =
+                complementarity.max((it.zu[i] * setup.vars.slack_upper(i, it.w[i]) - mu).abs());
+            bound_sum += it.zu[i];
+            bound_count += 1;
+        }
+    }
+    for r in 0..m {
+        multiplier_sum += it.lambda[r].abs();
+        multiplier_count += 1;
+        if setup.is_dynamics[r] {
+            primal = primal.max((ev.c[r] - setup.target[r]).abs());
+            continue;
+        }
+        primal = primal.max((ev.c[r] - it.t[r]).abs());
+        stationarity = stationarity.max((-it.lambda[r] - it.vl[r] + it.vu[r]).abs());
+        if setup.rows.lower[r].is_finite() {
+            complementarity =
+                complementarity.max((it.vl[r] * setup.rows.slack_lower(r, it.t[r]) - mu).abs());
+            bound_sum += it.vl[r];
+            bound_count += 1;
+        }
+        if setup.rows.upper[r].is_finite() {
+            complementarity =
+                complementarity.max((it.vu[r] * setup.rows.slack_upper(r, it.t[r]) - mu).abs());
+            bound_sum += it.vu[r];
+            bound_count += 1;
+        }
+    }
+    const S_MAX: f64 = 100.0;
+    let s_d = ((multiplier_sum + bound_sum) / ((multiplier_count + bound_count).max(1) as f64))
+        .max(S_MAX)
+        / S_MAX;
+    let s_c = (bound_sum / (bound_count.max(1) as f64)).max(S_MAX) / S_MAX;
+    (stationarity / s_d).max(primal).max(complementarity / s_c)
+}
+
+/// Per inequality row: `Σ_t` into `sigma_t`; returns `−μ/(t − t_l) + μ/(t_u − t)`.
+fn barrier_row_terms(setup: &Setup, it: &Iterate, mu: f64, sigma_t: &mut [f64]) -> Vec<f64> {
+    (0..setup.m)
+        .map(|r| {
+            if setup.is_dynamics[r] {
+                return 0.0;
+            }
+            let mut term = 0.0;
+            let mut sigma = 0.0;
+            if setup.rows.lower[r].is_finite() {
+                let s = setup.rows.slack_lower(r, it.t[r]);
+                sigma += it.vl[r] / s;
+                term -= mu / s;
+            }
+            if setup.rows.upper[r].is_finite() {
+                let s = setup.rows.slack_upper(r, it.t[r]);
+                sigma += it.vu[r] / s;
+                term += mu / s;
+            }
+            sigma_t[r] = sigma;
+            term
+        })
+        .collect()
+}
+
+/// Adds `J_Iᵀ (Σ_t r_I + row_terms)` to the condensed gradient.
+fn add_row_gradient(
+    jp: &crate::nlp::Pattern,
+    jacobian: &[f64],
+    setup: &Setup,
+    sigma_t: &[f64],
+    residual_i: &[f64],
+    row_terms: &[f64],
+    condensed: &mut [f64],
+) {
+    for ((&r, &c), &v) in jp.rows.iter().zip(&jp.cols).zip(jacobian) {
+        if !setup.is_dynamics[r] {
+            condensed[c] += v * (sigma_t[r] * residual_i[r] + row_terms[r]);
+        }
+    }
+}
+
+/// The slack, row-multiplier and bound-multiplier parts of the direction from `d.w`.
+#[allow(clippy::too_many_arguments)]
+fn complete_direction(
+    setup: &Setup,
+    jp: &crate::nlp::Pattern,
+    jacobian: &[f64],
+    it: &Iterate,
+    mu: f64,
+    sigma_t: &[f64],
+    residual_i: &[f64],
+    row_terms: &[f64],
+    new_lambda: &[f64],
+    d: &mut Direction,
+) {
+    let (n, m) = (setup.n, setup.m);
+    d.t.fill(0.0);
+    for ((&r, &c), &v) in jp.rows.iter().zip(&jp.cols).zip(jacobian) {
+        if !setup.is_dynamics[r] {
+            d.t[r] += v * d.w[c];
+        }
+    }
+    for r in 0..m {
+        if setup.is_dynamics[r] {
+            d.t[r] = 0.0;
+            d.lambda[r] = new_lambda[r] - it.lambda[r];
+            d.vl[r] = 0.0;
+            d.vu[r] = 0.0;
+            continue;
+        }
+        d.t[r] += residual_i[r];
+        // λ⁺ = Σ_t Δt − μ/(t − t_l) + μ/(t_u − t).
+        d.lambda[r] = sigma_t[r] * d.t[r] + row_terms[r] - it.lambda[r];
+        d.vl[r] = 0.0;
+        d.vu[r] = 0.0;
+        if setup.rows.lower[r].is_finite() {
+            let s = setup.rows.slack_lower(r, it.t[r]);
+            d.vl[r] = mu / s - it.vl[r] - it.vl[r] / s * d.t[r];
+        }
+        if setup.rows.upper[r].is_finite() {
+            let s = setup.rows.slack_upper(r, it.t[r]);
+            d.vu[r] = mu / s - it.vu[r] + it.vu[r] / s * d.t[r];
+        }
+    }
+    for i in 0..n {
+        d.zl[i] = 0.0;
+        d.zu[i] = 0.0;
+        if setup.vars.lower[i].is_finite() {
+            let s = setup.vars.slack_lower(i, it.w[i]);
+            d.zl[i] = mu / s - it.zl[i] - it.zl[i] / s * d.w[i];
+        }
+        if setup.vars.upper[i].is_finite() {
+            let s = setup.vars.slack_upper(i, it.w[i]);
+            d.zu[i] = mu / s - it.zu[i] + it.zu[i] / s * d.w[i];
+        }
+    }
+}
+
+/// `∇φᵀ d`, the barrier objective's directional derivative.
+fn barrier_slope(setup: &Setup, gradient: &[f64], it: &Iterate, d: &Direction, mu: f64) -> f64 {
+    let mut slope = 0.0;
+    for i in 0..setup.n {
+        let mut g = gradient[i];
+        if setup.vars.lower[i].is_finite() {
+            g -= mu / setup.vars.slack_lower(i, it.w[i]);
+        }
+        if setup.vars.upper[i].is_finite() {
+            g += mu / setup.vars.slack_upper(i, it.w[i]);
+        }
+        slope += g * d.w[i];
+    }
+    for r in 0..setup.m {
+        if setup.is_dynamics[r] {
+            continue;
+        }
+        let mut g = 0.0;
+        if setup.rows.lower[r].is_finite() {
+            g -= mu / setup.rows.slack_lower(r, it.t[r]);
+        }
+        if setup.rows.upper[r].is_finite() {
+            g += mu / setup.rows.slack_upper(r, it.t[r]);
+        }
+        slope += g * d.t[r];
+    }
+    slope
+}
+
+/// IPOPT's safeguard: every bound multiplier within `[μ/(κ s), κ μ/s]`, `κ = 1e10`.
+fn safeguard_multipliers(setup: &Setup, it: &mut Iterate, mu: f64) {
+    const KAPPA: f64 = 1e10;
+    let clamp = |z: &mut f64, s: f64| {
+        *z = z.max(mu / (KAPPA * s)).min(KAPPA * mu / s);
+    };
+    for i in 0..setup.n {
+        if setup.vars.lower[i].is_finite() {
+            clamp(&mut it.zl[i], setup.vars.slack_lower(i, it.w[i]));
+        }
+        if setup.vars.upper[i].is_finite() {
+            clamp(&mut it.zu[i], setup.vars.slack_upper(i, it.w[i]));
+        }
+    }
+    for r in 0..setup.m {
+        if setup.is_dynamics[r] {
+            continue;
+        }
+        if setup.rows.lower[r].is_finite() {
+            clamp(&mut it.vl[r], setup.rows.slack_lower(r, it.t[r]));
+        }
+        if setup.rows.upper[r].is_finite() {
+            clamp(&mut it.vu[r], setup.rows.slack_upper(r, it.t[r]));
+        }
+    }
+}
+
+/// The problem's own feasibility restoration: re-simulated states, the point pushed
+/// inside its bounds and the slacks set from the rows. Returns whether it lowered the
+/// violation.
+fn restore(nlp: &mut dyn Nlp, setup: &Setup, it: &mut Iterate, kappa: f64, c: &mut [f64]) -> bool {
+    nlp.constraints(&it.w, c);
+    let before = setup.violation(c, &it.t);
+    let mut w = it.w.clone();
+    if !nlp.restore_feasibility(&mut w) {
+        return false;
+    }
+    for (i, v) in w.iter_mut().enumerate() {
+        *v = pushed(
+            *v,
+            setup.vars.lower[i],
+            setup.vars.upper[i],
+            kappa.min(1e-6),
+        );
+    }
+    let f = nlp.objective(&w);
+    nlp.constraints(&w, c);
+    if !(f.is_finite() && all_finite(c)) {
+        return false;
+    }
+    let mut t = it.t.clone();
+    for r in 0..setup.m {
+        if !setup.is_dynamics[r] {
+            t[r] = pushed(
+                c[r],
+                setup.rows.lower[r],
+                setup.rows.upper[r],
+                kappa.min(1e-6),
+            );
+        }
+    }
+    let after = setup.violation(c, &t);
+    if after >= 0.9 * before {
+        return false;
+    }
+    it.w = w;
+    it.t = t;
+    true
+}

@@ -1,0 +1,366 @@
+//! The Newton step of an optimal-control problem by a Riccati recursion over its stages,
+//! with the inertia test that tells whether the step is a descent step.
+//!
+//! The equality-constrained quadratic problem of `N` stages, each with a state `z_k`
+//! (fixed at `z_0 = 0`) and a control `v_k`:
+//!
+//! ```text
+//! minimise  Σ_k ½ [z_k; v_k]ᵀ H_k [z_k; v_k] + q_kᵀ [z_k; v_k]  +  ½ z_Nᵀ H_N z_N + q_Nᵀ z_N
+//! subject to  z_{k+1} = A_k z_k + B_k v_k + c_k,   z_0 = 0,
+//! ```
+//!
+//! is solved backwards (`P_N = H_N`; per stage `R̂ = R + BᵀPB`, `Ŝ = S + BᵀPA`,
+//! `Q̂ = Q + AᵀPA`, a Cholesky factorisation of `R̂`, the gain `K = −R̂⁻¹Ŝ` and
+//! `P = Q̂ + ŜᵀK`), then forwards for the step. Its KKT matrix has the inertia of a
+//! minimum — as many positive eigenvalues as variables, as many negative ones as
+//! constraints — exactly when every `R̂_k` is positive definite, so the Cholesky
+//! factorisations are the inertia test: `H_k` and `H_N` may be indefinite (an indefinite
+//! terminal cost is fine) as long as the reduced Hessian is not. A failed factorisation
+//! names the stage, and the caller adds a multiple `δ` of each stage's `shift` diagonal
+//! and factorises again (inertia correction).
+//!
+//! [`Riccati::factor`] depends on the matrices only, [`Riccati::solve`] on the vectors
+//! `q_k` and `c_k`: a second right-hand side (a second-order correction, a corrector step)
+//! reuses the factorisation. Cost `O(N (n_z + n_v)³)` per factorisation, with no
+//! allocation after the first.
+
+use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
+
+/// One stage `k < N` of the problem (see the [module documentation](self)).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Stage {
+    /// `H_k`, `(n_z + n_v)²`, ordered `[z_k; v_k]`.
+    pub h: DMatrix<f64>,
+    /// `q_k`, `n_z + n_v`.
+    pub q: DVector<f64>,
+    /// `A_k`, `n_z(k+1) × n_z(k)`.
+    pub a: DMatrix<f64>,
+    /// `B_k`, `n_z(k+1) × n_v(k)`.
+    pub b: DMatrix<f64>,
+    /// `c_k`, `n_z(k+1)`.
+    pub c: DVector<f64>,
+    /// The diagonal that inertia correction adds `δ` times to `H_k`, `n_z + n_v` (zero
+    /// where a component is no variable of its own, such as a copy of an earlier control).
+    pub shift: DVector<f64>,
+    nz: usize,
+}
+
+impl Stage {
+    /// A stage of `nz` states, `nv` controls and `nz_next` states at the next stage, all
+    /// matrices zero and the shift one.
+    pub fn zeros(nz: usize, nv: usize, nz_next: usize) -> Stage {
+        Stage {
+            h: DMatrix::zeros(nz + nv, nz + nv),
+            q: DVector::zeros(nz + nv),
+            a: DMatrix::zeros(nz_next, nz),
+            b: DMatrix::zeros(nz_next, nv),
+            c: DVector::zeros(nz_next),
+            shift: DVector::from_element(nz + nv, 1.0),
+            nz,
+        }
+    }
+
+    /// States `n_z` of this stage.
+    pub fn nz(&self) -> usize {
+        self.nz
+    }
+
+    /// Controls `n_v` of this stage.
+    pub fn nv(&self) -> usize {
+        self.h.nrows() - self.nz
+    }
+}
+
+/// The last stage: a cost on `z_N` only.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Terminal {
+    /// `H_N`, `n_z(N)²`.
+    pub h: DMatrix<f64>,
+    /// `q_N`.
+    pub q: DVector<f64>,
+    /// The inertia-correction diagonal of `H_N`.
+    pub shift: DVector<f64>,
+}
+
+impl Terminal {
+    /// A zero terminal cost on `nz` states, with the shift one.
+    pub fn zeros(nz: usize) -> Terminal {
+        Terminal {
+            h: DMatrix::zeros(nz, nz),
+            q: DVector::zeros(nz),
+            shift: DVector::from_element(nz, 1.0),
+        }
+    }
+}
+
+/// The reduced Hessian of a stage is not positive definite: the KKT matrix has the wrong
+/// inertia (with the `δ` it was factorised with).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct WrongInertia {
+    /// The stage whose `R̂_k` failed its Cholesky factorisation.
+    pub stage: usize,
+}
+
+/// Per-stage factorisation data.
+#[derive(Debug, Clone)]
+struct Factor {
+    /// `R̂_k`'s Cholesky factor.
+    chol: Option<Cholesky<f64, Dyn>>,
+    /// `K_k = −R̂⁻¹Ŝ`.
+    gain: DMatrix<f64>,
+    /// `P_k`.
+    p: DMatrix<f64>,
+    // Workspaces.
+    pa: DMatrix<f64>,
+    pb: DMatrix<f64>,
+}
+
+/// A stage-structured quadratic problem, its factorisation and its solution.
+#[derive(Debug, Clone)]
+pub struct Riccati {
+    /// Stages `0 … N − 1`.
+    pub stages: Vec<Stage>,
+    /// The terminal stage `N`.
+    pub terminal: Terminal,
+    factors: Vec<Factor>,
+    p_terminal: DMatrix<f64>,
+    factored: bool,
+    /// The step: `z_k`, `k = 0 … N`.
+    pub z: Vec<DVector<f64>>,
+    /// The step: `v_k`, `k = 0 … N − 1`.
+    pub v: Vec<DVector<f64>>,
+    /// The multipliers of the dynamics of stage `k` (the gradient of the cost to go at
+    /// `z_{k+1}`), `k = 0 … N − 1`: in the Lagrangian `… + μ_kᵀ (A_k z_k + B_k v_k + c_k
+    /// − z_{k+1})`.
+    pub mu: Vec<DVector<f64>>,
+    /// `p_k`, the cost to go's gradient at `z_k = 0`.
+    p_vec: Vec<DVector<f64>>,
+    feedforward: Vec<DVector<f64>>,
+}
+
+impl Riccati {
+    /// A problem of the given stages and terminal cost; the dimensions must chain
+    /// (`A_k` maps `z_k` to `z_{k+1}`), which [`Riccati::is_consistent`] checks.
+    pub fn new(stages: Vec<Stage>, terminal: Terminal) -> Riccati {
+        let factors = stages
+            .iter()
+            .map(|s| Factor {
+                chol: None,
+                gain: DMatrix::zeros(s.nv(), s.nz()),
+                p: DMatrix::zeros(s.nz(), s.nz()),
+                pa: DMatrix::zeros(s.a.nrows(), s.nz()),
+                pb: DMatrix::zeros(s.b.nrows(), s.nv()),
+            })
+            .collect();
+        let nz_n = terminal.h.nrows();
+        let z = stages
+            .iter()
+            .map(|s| DVector::zeros(s.nz()))
+            .chain(std::iter::once(DVector::zeros(nz_n)))
+            .collect();
+        let v = stages.iter().map(|s| DVector::zeros(s.nv())).collect();
+        let mu = stages.iter().map(|s| DVector::zeros(s.a.nrows())).collect();
+        let p_vec = stages
+            .iter()
+            .map(|s| DVector::zeros(s.nz()))
+            .chain(std::iter::once(DVector::zeros(nz_n)))
+            .collect();
+        let feedforward = stages.iter().map(|s| DVector::zeros(s.nv())).collect();
+        Riccati {
+            stages,
+            terminal,
+            factors,
+            p_terminal: DMatrix::zeros(nz_n, nz_n),
+            factored: false,
+            z,
+            v,
+            mu,
+            p_vec,
+            feedforward,
+        }
+    }
+
+    /// Steps `N`.
+    pub fn horizon(&self) -> usize {
+        self.stages.len()
+    }
+
+    /// Whether every matrix has the size its neighbours imply.
+    pub fn is_consistent(&self) -> bool {
+        let n = self.stages.len();
+        (0..n).all(|k| {
+            let s = &self.stages[k];
+            let next = if k + 1 < n {
+                self.stages[k + 1].nz()
+            } else {
+                self.terminal.h.nrows()
+            };
+            let size = s.nz() + s.nv();
+            s.h.ncols() == size
+                && s.q.len() == size
+                && s.shift.len() == size
+                && s.a.shape() == (next, s.nz())
+                && s.b.shape() == (next, s.nv())
+                && s.c.len() == next
+        }) && self.terminal.h.is_square()
+            && self.terminal.q.len() == self.terminal.h.nrows()
+            && self.terminal.shift.len() == self.terminal.h.nrows()
+    }
+
+    /// Factorises with `δ · shift` added to every `H_k` and to `H_N`. Fails at the first
+    /// stage (going backwards) whose reduced Hessian `R̂_k` is not positive definite.
+    pub fn factor(&mut self, delta: f64) -> Result<(), WrongInertia> {
+        self.factored = false;
+        let t = &self.terminal;
+        self.p_terminal.copy_from(&t.h);
+        for i in 0..t.shift.len() {
+            self.p_terminal[(i, i)] += delta * t.shift[i];
+        }
+        for k in (0..self.stages.len()).rev() {
+            let (done, rest) = self.factors.split_at_mut(k + 1);
+            let next_p = rest.first().map_or(&self.p_terminal, |f| &f.p);
+            let f = &mut done[k];
+            let s = &self.stages[k];
+            let (nz, nv) = (s.nz(), s.nv());
+            // PA, PB with the next stage's P.
+            next_p.mul_to(&s.a, &mut f.pa);
+            next_p.mul_to(&s.b, &mut f.pb);
+            let mut r_hat = s.h.view((nz, nz), (nv, nv)).clone_owned();
+            r_hat.gemm_tr(1.0, &s.b, &f.pb, 1.0);
+            let mut s_hat = s.h.view((nz, 0), (nv, nz)).clone_owned();
+            s_hat.gemm_tr(1.0, &s.b, &f.pa, 1.0);
+            let mut q_hat = s.h.view((0, 0), (nz, nz)).clone_owned();
+            q_hat.gemm_tr(1.0, &s.a, &f.pa, 1.0);
+            for i in 0..nz {
+                q_hat[(i, i)] += delta * s.shift[i];
+            }
+            for i in 0..nv {
+                r_hat[(i, i)] += delta * s.shift[nz + i];
+            }
+            let Some(chol) = Cholesky::new(r_hat) else {
+                return Err(WrongInertia { stage: k });
+            };
+            // A pivot far below the matrix's scale is an indefinite direction lost in
+            // rounding: treated as the wrong inertia, like fatrop's 1e-8 pivot test.
+            let l = chol.l_dirty();
+            let scale = (0..nv).fold(0.0_f64, |a, i| a.max(l[(i, i)] * l[(i, i)]));
+            if (0..nv).any(|i| l[(i, i)] * l[(i, i)] <= 1e-14 * scale.max(1e-300)) {
+                return Err(WrongInertia { stage: k });
+            }
+            f.gain.copy_from(&s_hat);
+            chol.solve_mut(&mut f.gain);
+            f.gain.neg_mut();
+            // P = Q̂ + Ŝᵀ K, symmetrised.
+            f.p.copy_from(&q_hat);
+            f.p.gemm_tr(1.0, &s_hat, &f.gain, 1.0);
+            for i in 0..nz {
+                for j in 0..i {
+                    let m = 0.5 * (f.p[(i, j)] + f.p[(j, i)]);
+                    f.p[(i, j)] = m;
+                    f.p[(j, i)] = m;
+                }
+            }
+            f.chol = Some(chol);
+        }
+        self.factored = true;
+        Ok(())
+    }
+
+    /// Solves for the current `q_k`, `c_k` with the last factorisation: fills `z`, `v`
+    /// and `mu`. Returns `false` when there is no valid factorisation.
+    pub fn solve(&mut self) -> bool {
+        if !self.factored {
+            return false;
+        }
+        let n = self.stages.len();
+        self.p_vec[n].copy_from(&self.terminal.q);
+        for k in (0..n).rev() {
+            let s = &self.stages[k];
+            let f = &self.factors[k];
+            let (nz, nv) = (s.nz(), s.nv());
+            let next_p = if k + 1 < n {
+                &self.factors[k + 1].p
+            } else {
+                &self.p_terminal
+            };
+            // e = P c + p (next stage).
+            let e = &self.p_vec[k + 1] + next_p * &s.c;
+            // r̂ = q_v + Bᵀ e, q̂ = q_z + Aᵀ e.
+            let mut r_hat = s.q.rows(nz, nv).clone_owned();
+            r_hat.gemv_tr(1.0, &s.b, &e, 1.0);
+            let mut q_hat = s.q.rows(0, nz).clone_owned();
+            q_hat.gemv_tr(1.0, &s.a, &e, 1.0);
+            let Some(chol) = f.chol.as_ref() else {
+                return false;
+            };
+            let ff = &mut self.feedforward[k];
+            ff.copy_from(&r_hat);
+            chol.solve_mut(ff);
+            ff.neg_mut();
+            // p = q̂ + Kᵀ r̂.
+            q_hat.gemv_tr(1.0, &f.gain, &r_hat, 1.0);
+            self.p_vec[k].copy_from(&q_hat);
+        }
+        self.z[0].fill(0.0);
+        for k in 0..n {
+            let s = &self.stages[k];
+            let f = &self.factors[k];
+            let mut v = &f.gain * &self.z[k] + &self.feedforward[k];
+            std::mem::swap(&mut self.v[k], &mut v);
+            let mut z_next = &s.c + &s.a * &self.z[k];
+            z_next.gemv(1.0, &s.b, &self.v[k], 1.0);
+            let next_p = if k + 1 < n {
+                &self.factors[k + 1].p
+            } else {
+                &self.p_terminal
+            };
+            self.mu[k] = next_p * &z_next + &self.p_vec[k + 1];
+            self.z[k + 1] = z_next;
+        }
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One stage with a scalar state and control: by hand.
+    #[test]
+    fn one_stage_by_hand() {
+        // min ½ v² + ½ z₁² + q v  s.t. z₁ = 2 v + 1  →  v + 2 (2v + 1) + q = 0.
+        let mut stage = Stage::zeros(0, 1, 1);
+        stage.h[(0, 0)] = 1.0;
+        stage.q[0] = 3.0;
+        stage.b[(0, 0)] = 2.0;
+        stage.c[0] = 1.0;
+        let mut terminal = Terminal::zeros(1);
+        terminal.h[(0, 0)] = 1.0;
+        let mut r = Riccati::new(vec![stage], terminal);
+        assert!(r.is_consistent());
+        r.factor(0.0).unwrap();
+        assert!(r.solve());
+        let v = -(3.0 + 2.0) / 5.0;
+        assert!((r.v[0][0] - v).abs() < 1e-15);
+        assert!((r.z[1][0] - (2.0 * v + 1.0)).abs() < 1e-15);
+        // μ = ∂(½ z²)/∂z at z₁.
+        assert!((r.mu[0][0] - r.z[1][0]).abs() < 1e-15);
+    }
+
+    /// A negative control curvature not cured by the dynamics is the wrong inertia; the
+    /// shift cures it.
+    #[test]
+    fn negative_reduced_curvature_is_reported() {
+        let mut stage = Stage::zeros(0, 1, 1);
+        stage.h[(0, 0)] = -3.0;
+        stage.b[(0, 0)] = 1.0;
+        let mut terminal = Terminal::zeros(1);
+        terminal.h[(0, 0)] = 1.0;
+        let mut r = Riccati::new(vec![stage], terminal);
+        assert_eq!(r.factor(0.0), Err(WrongInertia { stage: 0 }));
+        assert!(!r.solve());
+        // With P = 1 + δ and R = −3 + δ: R̂ = −2 + 2δ > 0 from δ > 1.
+        assert!(r.factor(0.9).is_err());
+        assert!(r.factor(1.1).is_ok());
+    }
+}

@@ -1,0 +1,312 @@
+//! The structure-exploiting interior-point back-end (`solve::Ipm`): warm-started MPC on
+//! the literature plants beside SQP, an indefinite terminal cost (the lettuce value
+//! network) solved as it is, and every status it can end with, each on a problem built to
+//! end that way.
+
+use ghm::control::Mpc;
+use ghm::model::Plant;
+use ghm::nlp::{Nlp, Ocp, Pattern, Stages, TerminalCost};
+use ghm::sim::metrics::Metrics;
+use ghm::sim::season::{run_season, SeasonConfig, StepLog};
+use ghm::sim::weather::Weather;
+use ghm::solve::{kkt_residuals, Ipm, IpmOptions, SolveStatus, Solver, Sqp, Start};
+use std::path::Path;
+use std::sync::Arc;
+
+fn plant(file: &str) -> Arc<Plant> {
+    let model = ghm::lang::load(Path::new(file)).unwrap_or_else(|e| panic!("{}", e.render()));
+    Arc::new(Plant::new(model))
+}
+
+/// A closed loop of `steps` steps of MPC with `solver` on a plant without weather.
+fn closed_loop(
+    plant: &Arc<Plant>,
+    horizon: usize,
+    solver: Box<dyn Solver>,
+    steps: usize,
+) -> Metrics {
+    let weather = Weather::constant(vec![], &[], steps + horizon, plant.model.sample_period);
+    let mut mpc = Mpc::new(plant.clone(), horizon, solver).unwrap();
+    let config = SeasonConfig {
+        steps,
+        enforce_limits: true,
+        uncertainty: None,
+    };
+    let mut sink = |_: &StepLog| {};
+    run_season(plant, &weather, &mut mpc, &config, &mut sink)
+        .unwrap()
+        .metrics
+}
+
+#[test]
+fn warm_started_cstr_mpc_matches_sqp() {
+    // The CSTR's set-point change across an unstable steady state: the interior point
+    // must follow the same trajectory as SQP (an active-set method) from its warm starts.
+    let plant = plant("models/cstr.ghm");
+    let ipm = closed_loop(&plant, 10, Box::new(Ipm::default()), 40);
+    let sqp = closed_loop(&plant, 10, Box::new(Sqp::default()), 40);
+    assert_eq!(ipm.solve.failed_solves, 0, "{:?}", ipm.solve);
+    assert_eq!(ipm.solve.fallbacks, 0, "{:?}", ipm.solve);
+    let (a, b) = (ipm.cumulative_reward, sqp.cumulative_reward);
+    assert!((a - b).abs() <= 1e-6 * b.abs(), "IPM {a} vs SQP {b}");
+}
+
+#[test]
+fn warm_started_bioreactor_mpc_solves_every_step() {
+    let plant = plant("models/bioreactor.ghm");
+    let ipm = closed_loop(&plant, 12, Box::new(Ipm::default()), 24);
+    let sqp = closed_loop(&plant, 12, Box::new(Sqp::default()), 24);
+    assert_eq!(ipm.solve.failed_solves, 0, "{:?}", ipm.solve);
+    assert_eq!(ipm.solve.fallbacks, 0, "{:?}", ipm.solve);
+    // The interior point stops μ/z ≈ 1e-9/z inside active bounds; on the feed (0–0.05
+    // L/h, small multipliers) that is a relative 1e-4, and the season's reward differs
+    // from SQP's by that order.
+    let (a, b) = (ipm.cumulative_reward, sqp.cumulative_reward);
+    assert!((a - b).abs() <= 1e-3 * b.abs(), "IPM {a} vs SQP {b}");
+}
+
+/// `T(x) = w_a (Ca − 0.5)² − w_t (T − 350)²`: a saddle, the kind of indefinite terminal
+/// Hessian a value network has.
+#[derive(Debug)]
+struct Saddle;
+
+impl TerminalCost for Saddle {
+    fn evaluate(&mut self, x: &[f64], _: usize, gradient: &mut [f64], hessian: &mut [f64]) -> f64 {
+        let (wa, wt) = (1e4, 5.0);
+        gradient[0] = 2.0 * wa * (x[0] - 0.5);
+        gradient[1] = -2.0 * wt * (x[1] - 350.0);
+        hessian.copy_from_slice(&[2.0 * wa, 0.0, 0.0, -2.0 * wt]);
+        wa * (x[0] - 0.5).powi(2) - wt * (x[1] - 350.0).powi(2)
+    }
+}
+
+#[test]
+fn an_indefinite_terminal_hessian_is_solved_without_convexification() {
+    // The CSTR over one minute with a saddle as its terminal cost, started at the
+    // unstable steady state: the exact Hessian is indefinite, and the interior point
+    // takes it as it is (inertia corrections only where the reduced Hessian needs them).
+    let plant = plant("models/cstr.ghm");
+    let mut ocp = Ocp::new(plant.clone(), 10).unwrap();
+    ocp.set_problem(0, &[0.5, 350.0], &[300.0], &[]).unwrap();
+    ocp.set_terminal_cost(Some(Box::new(Saddle)));
+    let mut start = vec![0.0; ocp.n_vars()];
+    ocp.initial_point(&mut start);
+    let mut ipm = Ipm::default();
+    let solution = ipm.solve(&mut ocp, Start::cold(&start));
+    assert!(solution.status.is_success(), "{:?}", solution.stats);
+    let kkt = kkt_residuals(
+        &mut ocp,
+        &solution.x,
+        &solution.multipliers,
+        &solution.bound_multipliers,
+    );
+    assert!(kkt.max() < 1e-7, "{kkt:?}");
+    // No worse than SQP's convexified solve from the same start.
+    let sqp = Sqp::default().solve(&mut ocp, Start::cold(&start));
+    assert!(sqp.status.is_success(), "{:?}", sqp.status);
+    let (a, b) = (solution.stats.objective, sqp.stats.objective);
+    assert!(a <= b + 1e-9 * b.abs(), "IPM {a} vs SQP {b}");
+    // The exact Hessian needed correcting on the way (the test exercises that branch).
+    assert!(ipm.inertia_corrections() > 0);
+}
+
+/// `x_{k+1} = x_k + u_k` from `x_0 = 0`, `u_k ∈ [−1, 1]`: minimise
+/// `Σ_k (x_{k+1} − goal)² + ρ u_k²`, optionally with the row `x_N ≥ floor`, or an
+/// objective that is NaN. Variables `[u_0] [x_1 u_1] … [x_N]`.
+struct Chain {
+    n: usize,
+    goal: f64,
+    floor: Option<f64>,
+    nan: bool,
+    staged: bool,
+    jacobian: Pattern,
+    hessian: Pattern,
+}
+
+impl Chain {
+    fn new(n: usize, goal: f64) -> Chain {
+        let mut c = Chain {
+            n,
+            goal,
+            floor: None,
+            nan: false,
+            staged: true,
+            jacobian: Pattern::default(),
+            hessian: Pattern::default(),
+        };
+        for k in 0..n {
+            c.jacobian.push(k, c.x(k + 1));
+            if k > 0 {
+                c.jacobian.push(k, c.x(k));
+            }
+            c.jacobian.push(k, c.u(k));
+        }
+        c.jacobian.push(n, c.x(n));
+        for v in 0..2 * n {
+            c.hessian.push(v, v);
+        }
+        c
+    }
+    fn x(&self, k: usize) -> usize {
+        2 * k - 1
+    }
+    fn u(&self, k: usize) -> usize {
+        2 * k
+    }
+    const RHO: f64 = 0.1;
+}
+
+impl Nlp for Chain {
+    fn n_vars(&self) -> usize {
+        2 * self.n
+    }
+    fn n_cons(&self) -> usize {
+        self.n + 1
+    }
+    fn var_bounds(&self, lower: &mut [f64], upper: &mut [f64]) {
+        lower.fill(f64::NEG_INFINITY);
+        upper.fill(f64::INFINITY);
+        for k in 0..self.n {
+            lower[self.u(k)] = -1.0;
+            upper[self.u(k)] = 1.0;
+        }
+    }
+    fn con_bounds(&self, lower: &mut [f64], upper: &mut [f64]) {
+        lower[..self.n].fill(0.0);
+        upper[..self.n].fill(0.0);
+        lower[self.n] = self.floor.unwrap_or(f64::NEG_INFINITY);
+        upper[self.n] = f64::INFINITY;
+    }
+    fn initial_point(&mut self, x: &mut [f64]) {
+        x.fill(0.0);
+    }
+    fn objective(&mut self, w: &[f64]) -> f64 {
+        if self.nan {
+            return f64::NAN;
+        }
+        (0..self.n)
+            .map(|k| (w[self.x(k + 1)] - self.goal).powi(2) + Self::RHO * w[self.u(k)].powi(2))
+            .sum()
+    }
+    fn gradient(&mut self, w: &[f64], g: &mut [f64]) {
+        for k in 0..self.n {
+            g[self.x(k + 1)] = 2.0 * (w[self.x(k + 1)] - self.goal);
+            g[self.u(k)] = 2.0 * Self::RHO * w[self.u(k)];
+        }
+    }
+    fn constraints(&mut self, w: &[f64], g: &mut [f64]) {
+        for k in 0..self.n {
+            let previous = if k > 0 { w[self.x(k)] } else { 0.0 };
+            g[k] = w[self.x(k + 1)] - previous - w[self.u(k)];
+        }
+        g[self.n] = w[self.x(self.n)];
+    }
+    fn jacobian_pattern(&self) -> &Pattern {
+        &self.jacobian
+    }
+    fn jacobian_values(&mut self, _: &[f64], values: &mut [f64]) {
+        let mut e = 0;
+        for k in 0..self.n {
+            values[e] = 1.0;
+            e += 1;
+            if k > 0 {
+                values[e] = -1.0;
+                e += 1;
+            }
+            values[e] = -1.0;
+            e += 1;
+        }
+        values[e] = 1.0;
+    }
+    fn hessian_pattern(&self) -> &Pattern {
+        &self.hessian
+    }
+    fn hessian_values(&mut self, _: &[f64], sigma: f64, _: &[f64], values: &mut [f64]) {
+        for (v, value) in values.iter_mut().enumerate() {
+            *value = sigma * if v % 2 == 1 { 2.0 } else { 2.0 * Self::RHO };
+        }
+    }
+    fn stages(&self) -> Option<Stages> {
+        self.staged.then(|| Stages {
+            states: std::iter::once(0..0)
+                .chain((1..=self.n).map(|k| self.x(k)..self.x(k) + 1))
+                .collect(),
+            controls: (0..self.n).map(|k| self.u(k)..self.u(k) + 1).collect(),
+            dynamics: (0..self.n).map(|k| k..k + 1).collect(),
+        })
+    }
+}
+
+fn solve(chain: &mut Chain, options: IpmOptions, limit: Option<usize>) -> ghm::solve::Solution {
+    let mut ipm = Ipm::new(options);
+    ipm.set_iteration_limit(limit);
+    let start = vec![0.0; chain.n_vars()];
+    ipm.solve(chain, Start::cold(&start))
+}
+
+#[test]
+fn optimal_on_a_chain_equals_sqp() {
+    // The goal is out of reach in the first steps: u_0, u_1 on their upper bound.
+    let mut chain = Chain::new(5, 3.0);
+    let ipm = solve(&mut chain, IpmOptions::default(), None);
+    assert_eq!(ipm.status, SolveStatus::Optimal);
+    let sqp = Sqp::default().solve(&mut chain, Start::cold(&[0.0; 10]));
+    assert_eq!(sqp.status, SolveStatus::Optimal);
+    for (a, b) in ipm.x.iter().zip(&sqp.x) {
+        assert!((a - b).abs() < 1e-6, "{:?} vs {:?}", ipm.x, sqp.x);
+    }
+    for (a, b) in ipm.multipliers.iter().zip(&sqp.multipliers) {
+        assert!(
+            (a - b).abs() < 1e-6,
+            "{:?} vs {:?}",
+            ipm.multipliers,
+            sqp.multipliers
+        );
+    }
+    assert!((ipm.x[chain.u(0)] - 1.0).abs() < 1e-6);
+}
+
+#[test]
+fn the_iteration_limit_ends_with_max_iterations() {
+    let mut chain = Chain::new(5, 3.0);
+    let s = solve(&mut chain, IpmOptions::default(), Some(1));
+    assert_eq!(s.status, SolveStatus::MaxIterations);
+    assert_eq!(s.stats.iterations, 1);
+}
+
+#[test]
+fn an_unreachable_tolerance_ends_acceptable() {
+    let mut chain = Chain::new(5, 3.0);
+    let options = IpmOptions {
+        tolerance: 0.0,
+        acceptable_iterations: 3,
+        ..IpmOptions::default()
+    };
+    let s = solve(&mut chain, options, None);
+    assert_eq!(s.status, SolveStatus::Acceptable);
+}
+
+#[test]
+fn an_unreachable_terminal_row_ends_infeasible() {
+    // |u| ≤ 1 over 3 steps cannot bring x_3 to 10.
+    let mut chain = Chain::new(3, 0.0);
+    chain.floor = Some(10.0);
+    let s = solve(&mut chain, IpmOptions::default(), None);
+    assert_eq!(s.status, SolveStatus::Infeasible, "{:?}", s.stats);
+}
+
+#[test]
+fn a_nan_objective_ends_with_invalid_number() {
+    let mut chain = Chain::new(3, 1.0);
+    chain.nan = true;
+    let s = solve(&mut chain, IpmOptions::default(), None);
+    assert_eq!(s.status, SolveStatus::InvalidNumber);
+}
+
+#[test]
+fn a_problem_without_stages_ends_with_numerical_error() {
+    let mut chain = Chain::new(3, 1.0);
+    chain.staged = false;
+    let s = solve(&mut chain, IpmOptions::default(), None);
+    assert_eq!(s.status, SolveStatus::NumericalError);
+}
