@@ -1,6 +1,7 @@
 //! The `ghm` binary end to end: outputs written, clear errors for bad files and arguments.
 
-use std::path::PathBuf;
+use sha2::{Digest, Sha256};
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn ghm(args: &[&str]) -> (bool, String, String) {
@@ -13,6 +14,60 @@ fn ghm(args: &[&str]) -> (bool, String, String) {
         String::from_utf8_lossy(&out.stdout).into_owned(),
         String::from_utf8_lossy(&out.stderr).into_owned(),
     )
+}
+
+/// A CSV file as its header and rows of fields (ghm writes no quoted fields).
+struct Table {
+    header: Vec<String>,
+    rows: Vec<Vec<String>>,
+}
+
+impl Table {
+    fn read(path: &Path) -> Table {
+        let text =
+            std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let mut lines = text
+            .lines()
+            .map(|l| l.split(',').map(String::from).collect());
+        let header: Vec<String> = lines.next().unwrap_or_default();
+        let rows: Vec<Vec<String>> = lines.collect();
+        for row in &rows {
+            assert_eq!(row.len(), header.len(), "{row:?}");
+        }
+        Table { header, rows }
+    }
+
+    /// The fields of column `name`, one per row.
+    fn column(&self, name: &str) -> Vec<&str> {
+        let i = (self.header.iter().position(|h| h == name))
+            .unwrap_or_else(|| panic!("no column {name} in {:?}", self.header));
+        self.rows.iter().map(|r| r[i].as_str()).collect()
+    }
+
+    /// Column `name` as numbers.
+    fn numbers(&self, name: &str) -> Vec<f64> {
+        let parse = |v: &str| {
+            v.parse()
+                .unwrap_or_else(|_| panic!("{name}: {v:?} is not a number"))
+        };
+        self.column(name).into_iter().map(parse).collect()
+    }
+}
+
+fn summary(dir: &Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(dir.join("summary.json")).expect("summary.json");
+    serde_json::from_str(&text).expect("JSON")
+}
+
+/// `a` and `b` agree to `rtol` of the larger (sums of the same terms in another order).
+fn close(a: f64, b: f64, rtol: f64) -> bool {
+    (a - b).abs() <= rtol * a.abs().max(b.abs())
+}
+
+/// SHA-256 of a text, in hex.
+fn sha256(text: &str) -> String {
+    let digest = Sha256::digest(text.as_bytes());
+    digest.iter().map(|b| format!("{b:02x}")).collect()
 }
 
 fn temp_dir(name: &str) -> PathBuf {
@@ -55,14 +110,45 @@ fn simulate_writes_trajectory_summary_and_plot() {
     let csv = std::fs::read_to_string(dir.join("trajectory.csv")).expect("trajectory.csv");
     assert_eq!(csv.lines().count(), 1 + 96);
     assert!(csv.starts_with("k,time_h,x_dry_weight"));
-    let summary: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(dir.join("summary.json")).expect("summary.json"),
-    )
-    .expect("JSON");
+    let summary = summary(&dir);
     assert_eq!(summary["metrics"]["steps"], 96);
-    assert_eq!(summary["model_sha256"].as_str().map(str::len), Some(64));
+    let text = std::fs::read_to_string("models/lettuce.ghm").expect("the model file");
+    assert_eq!(summary["model_sha256"], sha256(&text).as_str());
     let png = std::fs::read(dir.join("trajectory.png")).expect("trajectory.png");
     assert_eq!(&png[..4], b"\x89PNG");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `model_sha256` is the SHA-256 of the model file: the same file gives the same hash, a
+/// changed price another one.
+#[test]
+fn model_hash_follows_the_model_file() {
+    let dir = temp_dir("hash");
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let original = std::fs::read_to_string("models/lettuce.ghm").expect("the model file");
+    let changed = original.replacen("= 20.93 ", "= 21.93 ", 1);
+    assert_ne!(
+        changed, original,
+        "the crop price moved in models/lettuce.ghm"
+    );
+    let mut hashes = Vec::new();
+    for (name, text) in [("a", &original), ("b", &original), ("c", &changed)] {
+        let model = dir.join(format!("{name}.ghm"));
+        std::fs::write(&model, text).expect("write");
+        let out_dir = dir.join(name);
+        let (model, out) = (
+            model.to_str().expect("utf-8"),
+            out_dir.to_str().expect("utf-8"),
+        );
+        let (ok, _, err) = ghm(&["simulate", model, "--steps", "1", "--out", out]);
+        assert!(ok, "{err}");
+        let hash = summary(&out_dir)["model_sha256"].as_str().map(String::from);
+        assert_eq!(hash.as_deref(), Some(sha256(text).as_str()), "{name}");
+        hashes.push(hash);
+    }
+    assert_eq!(hashes[0], hashes[1]);
+    assert_ne!(hashes[0], hashes[2]);
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -78,30 +164,53 @@ fn bad_model_reports_location_and_fails() {
     assert!(!err.contains("panicked"));
 }
 
+/// Each bad argument or missing file gets its own message, naming what is wrong (a
+/// generic failure that happens to print "error" would not do).
 #[test]
 fn bad_arguments_and_files_give_messages_not_panics() {
-    let cases: &[&[&str]] = &[
-        &["check", "no/such/file.ghm"],
-        &["simulate", "models/lettuce.ghm", "--inputs", "const:1,2"],
-        &["simulate", "models/lettuce.ghm", "--inputs", "const:a,b,c"],
-        &["simulate", "models/lettuce.ghm", "--weather", "no/such.csv"],
-        &["simulate", "models/lettuce.ghm", "--knmi", "no/such.txt"],
-        &["simulate", "models/lettuce.ghm", "--steps", "0"],
-        &["simulate", "models/lettuce.ghm", "--uncertainty", "2"],
-        &[
-            "simulate",
-            "models/lettuce.ghm",
-            "--inputs",
-            "no/such-inputs.csv",
-        ],
+    let cases: &[(&[&str], &str)] = &[
+        (
+            &["check", "no/such/file.ghm"],
+            "cannot read model file `no/such/file.ghm`",
+        ),
+        (
+            &["simulate", "models/lettuce.ghm", "--inputs", "const:1,2"],
+            "error: --inputs const: gives 2 values; the model has 3 inputs (co2_supply, ventilation, heating)",
+        ),
+        (
+            &["simulate", "models/lettuce.ghm", "--inputs", "const:a,b,c"],
+            "error: --inputs const:a,b,c: expected 3 comma-separated numbers",
+        ),
+        (
+            &["simulate", "models/lettuce.ghm", "--weather", "no/such.csv"],
+            "error: no/such.csv: cannot read",
+        ),
+        (
+            &["simulate", "models/lettuce.ghm", "--knmi", "no/such.txt"],
+            "error: no/such.txt: cannot read",
+        ),
+        (
+            &["simulate", "models/lettuce.ghm", "--steps", "0"],
+            "error: the season must have at least one step",
+        ),
+        (
+            &["simulate", "models/lettuce.ghm", "--uncertainty", "2"],
+            "error: --uncertainty must be in [0, 1)",
+        ),
+        (
+            &[
+                "simulate",
+                "models/lettuce.ghm",
+                "--inputs",
+                "no/such-inputs.csv",
+            ],
+            "error: no/such-inputs.csv: cannot read",
+        ),
     ];
-    for args in cases {
+    for (args, message) in cases {
         let (ok, _, err) = ghm(args);
         assert!(!ok, "{args:?} should fail");
-        assert!(
-            err.starts_with("error") || err.contains("error"),
-            "{args:?}: {err}"
-        );
+        assert!(err.contains(message), "{args:?}: {err}");
         assert!(!err.contains("panicked"), "{args:?}: {err}");
     }
 }
@@ -125,19 +234,23 @@ fn mpc_runs_on_builtin_weather_and_reports_solver_statistics() {
         out.contains("cumulative reward") && out.contains("failed solves"),
         "{out}"
     );
-    let csv = std::fs::read_to_string(dir.join("trajectory.csv")).expect("trajectory.csv");
-    let header = csv.lines().next().unwrap_or_default();
-    for column in ["solve_ms", "iterations", "status", "fallback"] {
-        assert!(header.contains(column), "{header}");
+    let table = Table::read(&dir.join("trajectory.csv"));
+    assert_eq!(table.rows.len(), 48);
+    // No solve failed on this day, so every step's status is a success; a fallback is
+    // only ever a cold start after a failed warm solve, which then succeeded.
+    let status = table.column("status");
+    let fallback = table.column("fallback");
+    for (k, (status, fallback)) in status.iter().zip(&fallback).enumerate() {
+        assert!(
+            matches!(*status, "optimal" | "acceptable"),
+            "step {k}: {status}"
+        );
+        assert!(
+            matches!(*fallback, "" | "cold_start"),
+            "step {k}: {fallback}"
+        );
     }
-    assert!(csv
-        .lines()
-        .skip(1)
-        .all(|l| l.contains(",optimal,") || l.contains(",acceptable,") || l.contains("fallback")));
-    let summary: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(dir.join("summary.json")).expect("summary.json"),
-    )
-    .expect("JSON");
+    let summary = summary(&dir);
     assert_eq!(summary["horizon_steps"], 2);
     let solve = &summary["metrics"]["solve"];
     assert!(
@@ -146,6 +259,79 @@ fn mpc_runs_on_builtin_weather_and_reports_solver_statistics() {
     );
     assert!(solve["max_ms"].as_f64() >= solve["p95_ms"].as_f64());
     assert_eq!(solve["failed_solves"], 0, "{solve}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The figures of `summary.json` are those of the rows of `trajectory.csv`: the season's
+/// reward, EPI and penalties are the sums of the step columns (written to full precision),
+/// the last cumulative reward is the season's, and the solver figures count the rows. The
+/// plant's parameters are drawn 10 % off the controller's, so that every band is left and
+/// its penalty column counts.
+#[test]
+fn mpc_summary_agrees_with_its_trajectory() {
+    let dir = temp_dir("agree");
+    let d = dir.to_str().expect("utf-8 temp path");
+    let (ok, _, err) = ghm(&[
+        "mpc",
+        "models/lettuce.ghm",
+        "--days",
+        "2",
+        "--horizon",
+        "1h",
+        "--uncertainty",
+        "0.1",
+        "--out",
+        d,
+    ]);
+    assert!(ok, "{err}");
+    let table = Table::read(&dir.join("trajectory.csv"));
+    let m = &summary(&dir)["metrics"];
+    let number = |key: &str| m[key].as_f64().unwrap_or_else(|| panic!("{key}: {m}"));
+    assert_eq!(m["steps"], table.rows.len());
+    let sum = |name: &str| table.numbers(name).iter().sum::<f64>();
+    let reward = sum("reward");
+    assert!(
+        close(reward, number("cumulative_reward"), 1e-12),
+        "{reward} vs {m}"
+    );
+    let last = *table.numbers("cumulative_reward").last().expect("rows");
+    assert!(
+        close(last, number("cumulative_reward"), 1e-12),
+        "{last} vs {m}"
+    );
+    assert!(close(sum("economic"), number("epi"), 1e-12), "{m}");
+    let bands = m["bands"].as_array().expect("bands");
+    let mut penalty = 0.0;
+    for band in bands {
+        let name = band["output"].as_str().expect("band output");
+        let column = sum(&format!("penalty_{name}"));
+        let recorded = band["penalty"].as_f64().expect("band penalty");
+        assert!(recorded > 0.0, "{name}: {band}");
+        assert!(close(column, recorded, 1e-12), "{name}: {column} vs {band}");
+        penalty += column;
+    }
+    assert!(close(penalty, number("total_penalty"), 1e-12), "{m}");
+    assert!(close(reward, sum("economic") - penalty, 1e-9), "{m}");
+    let solve = &m["solve"];
+    let iterations = table.numbers("iterations");
+    let mean = iterations.iter().sum::<f64>() / iterations.len() as f64;
+    let recorded = solve["mean_iterations"].as_f64().expect("mean_iterations");
+    assert!(close(mean, recorded, 1e-12), "{mean} vs {solve}");
+    let failed = (table.column("status").iter())
+        .filter(|s| !matches!(**s, "optimal" | "acceptable"))
+        .count();
+    let fallbacks = table
+        .column("fallback")
+        .iter()
+        .filter(|f| !f.is_empty())
+        .count();
+    assert_eq!(solve["failed_solves"], failed, "{solve}");
+    assert_eq!(solve["fallbacks"], fallbacks, "{solve}");
+    let times = table.numbers("solve_ms");
+    let max = times.iter().copied().fold(0.0, f64::max);
+    let recorded = solve["max_ms"].as_f64().expect("max_ms");
+    assert!((max - recorded).abs() <= 1e-4, "{max} vs {solve}"); // the CSV rounds to 0.1 µs
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]

@@ -3,8 +3,8 @@
 
 mod common;
 
-use common::{closed_loop, plant, states_along_season, venlo, STEPS};
-use ghm::nlp::{Nlp, Ocp};
+use common::{closed_loop, closed_loop_with_bands, plant, states_along_season, venlo, STEPS};
+use ghm::nlp::{Bands, Nlp, Ocp};
 use ghm::solve::{kkt_residuals, Solver, Sqp, Start};
 
 #[test]
@@ -57,11 +57,28 @@ fn shared_two_day_closed_loop_matches_the_peer_reward() {
     }
 }
 
-/// The paper variant in closed loop: two days at 3 h without a failed solve.
+/// The paper variant (`models/lettuce.ghm`) in closed loop, two days at 3 h.
+///
+/// Planning with the scoring bands (what `ghm mpc` does on the nominal plant), it is the
+/// problem of the peer's CasADi + IPOPT (`run_reference.py mpc --hours 3 --days 2
+/// --variant paper --init robust` in ../shared/peers: cumulative reward −0.0801684, no
+/// failed solve, no penalty); it is held to it within the same 2e-5 as the thesis variant.
+///
+/// Planning with the model's `plan` bounds (humidity 78 % instead of 80 %) is a problem of
+/// ghm's own, with no peer figure: its reward, −0.0838453, was recorded once from this
+/// test (`cargo test --test shared_mpc paper`) and is pinned to the same 2e-5. It is below
+/// the scoring bands' reward, as the back-off costs yield.
 #[test]
-fn shared_paper_variant_closed_loop_has_no_failed_solve() {
+fn shared_paper_variant_closed_loop_matches_the_peer_reward() {
     let plant = plant("models/lettuce.ghm");
-    let m = closed_loop(&plant, 6, Box::new(Sqp::default()), 96);
-    assert_eq!(m.solve.failed_solves, 0, "{:?}", m.solve);
-    assert!(m.cumulative_reward > -0.2, "{m:?}");
+    for (bands, reference) in [(Bands::Scoring, -0.0801684), (Bands::Planning, -0.0838453)] {
+        let m = closed_loop_with_bands(&plant, 6, Box::new(Sqp::default()), 96, bands);
+        assert_eq!(m.solve.failed_solves, 0, "{bands:?}: {:?}", m.solve);
+        assert!(
+            (m.cumulative_reward - reference).abs() < 2e-5,
+            "{bands:?}: reward {} vs {reference}: {m:?}",
+            m.cumulative_reward
+        );
+        assert!(m.total_penalty < 1e-9, "{bands:?}: {m:?}");
+    }
 }

@@ -1092,6 +1092,65 @@ mod tests {
         assert!(matches!(e, E::KnmiNoHeader { .. }), "{e}");
     }
 
+    /// Each way a KNMI file can be malformed is its own error, naming the line: a data
+    /// line before the header, a short line, a date or hour out of range, a second
+    /// station, a cell that is not a number, a header without a needed column, and
+    /// arguments that are not positive.
+    #[test]
+    fn knmi_format_errors_name_the_line_and_the_fault() {
+        let head = "STN,YYYYMMDD,HH,T,Q,U\n";
+        let good = "391,20140208,1,50,0,90\n";
+        let format = |name: &str, text: &str| match knmi(name, text) {
+            Err(E::KnmiFormat { row, message, .. }) => (row, message),
+            other => panic!("{name}: {other:?}"),
+        };
+        let early = format("knmi_early.txt", &format!("{good}{head}{good}"));
+        assert_eq!(early, (1, "data line before the header line".into()));
+        let short = format(
+            "knmi_short.txt",
+            &format!("{head}{good}391,20140208,2,50,0\n"),
+        );
+        assert_eq!(short, (3, "5 fields but the header has 6".into()));
+        for (bad, date, hour) in [
+            ("391,20141308,2,50,0,90", 20141308, 2),
+            ("391,20140200,2,50,0,90", 20140200, 2),
+            ("391,20140208,0,50,0,90", 20140208, 0),
+            ("391,20140208,25,50,0,90", 20140208, 25),
+        ] {
+            let e = format("knmi_date.txt", &format!("{head}{good}{bad}\n"));
+            assert_eq!(e, (3, format!("bad date/hour {date} {hour}")), "{bad}");
+        }
+        let other = format(
+            "knmi_stn.txt",
+            &format!("{head}{good}380,20140208,2,50,0,90\n"),
+        );
+        assert_eq!(other, (3, "station 380 differs from 391".into()));
+        let e = knmi(
+            "knmi_text.txt",
+            &format!("{head}{good}391,20140208,2,warm,0,90\n"),
+        )
+        .expect_err("a word for T");
+        assert!(
+            matches!(&e, E::NotNumeric { row: 3, column, text, .. } if column == "T" && text == "warm"),
+            "{e}"
+        );
+        let e = knmi(
+            "knmi_no_q.txt",
+            "STN,YYYYMMDD,HH,T,U\n391,20140208,1,50,90\n",
+        )
+        .expect_err("no Q column");
+        assert!(
+            matches!(&e, E::MissingColumn { column, .. } if column == "Q"),
+            "{e}"
+        );
+        let text = format!("{head}{good}391,20140208,2,50,0,90\n");
+        assert!(knmi("knmi_ok.txt", &text).is_ok());
+        for (period, co2) in [(0.0, 400.0), (1800.0, -1.0), (f64::NAN, 400.0)] {
+            let e = with_file("knmi_args.txt", &text, |p| load_knmi(p, period, co2));
+            assert!(matches!(e, Err(E::BadArgument(_))), "{period} {co2}: {e:?}");
+        }
+    }
+
     #[test]
     fn builtin_deterministic_and_plausible() {
         let a = builtin_season(1920, 1800.0, 7);

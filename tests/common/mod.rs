@@ -3,6 +3,7 @@
 
 use ghm::control::Mpc;
 use ghm::model::Plant;
+use ghm::nlp::Bands;
 use ghm::sim::metrics::Metrics;
 use ghm::sim::season::{run_season, SeasonConfig, StepLog};
 use ghm::sim::weather::{load_csv, Weather};
@@ -47,15 +48,28 @@ pub fn states_along_season(plant: &Plant, weather: &Weather, steps: &[usize]) ->
 
 pub const STEPS: [usize; 10] = [0, 7, 150, 333, 500, 720, 1000, 1234, 1500, 1900];
 
-/// Runs `steps` steps of MPC over `horizon` with `solver` from the start of the season.
+/// Runs `steps` steps of MPC over `horizon` with `solver` from the start of the season,
+/// planning with the model's planning bands (`Mpc::new`'s default).
 pub fn closed_loop(
     plant: &Arc<Plant>,
     horizon: usize,
     solver: Box<dyn Solver>,
     steps: usize,
 ) -> Metrics {
+    closed_loop_with_bands(plant, horizon, solver, steps, Bands::Planning)
+}
+
+/// Like [`closed_loop`], planning with the chosen bounds of the soft bands.
+pub fn closed_loop_with_bands(
+    plant: &Arc<Plant>,
+    horizon: usize,
+    solver: Box<dyn Solver>,
+    steps: usize,
+    bands: Bands,
+) -> Metrics {
     let weather = venlo(plant, steps + horizon);
-    let mut mpc = Mpc::new(plant.clone(), horizon, solver).expect("horizon > 0");
+    let mpc = Mpc::new(plant.clone(), horizon, solver).expect("horizon > 0");
+    let mut mpc = mpc.with_bands(bands).expect("the bands");
     let config = SeasonConfig {
         steps,
         enforce_limits: true,
