@@ -273,7 +273,12 @@ impl Ipm {
         self.corrections
     }
 
-    /// Factorises with the smallest `δ` of IPOPT's schedule that gives the right inertia.
+    /// Factorises with the smallest `δ` of IPOPT's schedule that gives the right inertia,
+    /// then narrows it down towards the threshold by bisection (in `log δ`, between the
+    /// last failure and the first success): a `δ` far above the threshold damps the step
+    /// along a direction of negative curvature to a crawl, one just above it lets the
+    /// step run to the bound that ends that direction, where the barrier's curvature
+    /// takes over.
     fn factor(riccati: &mut Riccati, last_delta: &mut f64) -> Option<f64> {
         if riccati.factor(0.0).is_ok() {
             return Some(0.0);
@@ -284,14 +289,31 @@ impl Ipm {
             (*last_delta / 3.0).max(1e-20)
         };
         let growth = if *last_delta == 0.0 { 100.0 } else { 8.0 };
+        let mut failed = delta / growth;
         while delta <= 1e20 {
             if riccati.factor(delta).is_ok() {
-                *last_delta = delta;
-                return Some(delta);
+                break;
             }
+            failed = delta;
             delta *= growth;
         }
-        None
+        if delta > 1e20 {
+            return None;
+        }
+        for _ in 0..4 {
+            let middle = (failed * delta).sqrt();
+            if riccati.factor(middle).is_ok() {
+                delta = middle;
+            } else {
+                failed = middle;
+            }
+        }
+        // The factorisation of the last try may be a failed one: factorise `δ` again.
+        if riccati.factor(delta).is_err() {
+            return None;
+        }
+        *last_delta = delta;
+        Some(delta)
     }
 }
 
