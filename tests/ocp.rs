@@ -401,3 +401,67 @@ fn restore_feasibility_resimulates_the_states_with_the_plant_step() {
         assert!(soft.iter().all(|v| *v >= -1e-12), "stage {j}: {soft:?}");
     }
 }
+
+#[test]
+fn a_long_horizon_swept_in_parallel_gives_the_stage_blocks_of_a_short_one() {
+    // 130 stages are swept by two threads (stages 0–64 and 65–129); a 70-stage problem
+    // started at x_65 with the same later stages is swept by one. The Hessian blocks,
+    // Jacobians and constraints of the common stages must agree bit for bit.
+    let plant = plant("models/cstr.ghm");
+    let (long_n, offset, short_n) = (130, 65, 70);
+    let mut long = Ocp::new(plant.clone(), long_n).unwrap();
+    let mut x = vec![0.0; long.n_vars()];
+    long.initial_point(&mut x);
+    let l = *long.layout();
+    // A point away from the roll-out, and multipliers of both signs.
+    for (i, v) in x.iter_mut().enumerate() {
+        *v += 1e-3 * ((i * 7919 % 13) as f64 - 6.0);
+    }
+    let lambda: Vec<f64> = (0..long.n_cons())
+        .map(|r| ((r * 104729 % 17) as f64 - 8.0) * 0.1)
+        .collect();
+    let (mut g, mut grad) = (vec![0.0; long.n_cons()], vec![0.0; long.n_vars()]);
+    let mut jac = vec![0.0; long.jacobian_pattern().len()];
+    let mut hess = vec![0.0; long.hessian_pattern().len()];
+    long.evaluate_all(&x, 1.0, &lambda, &mut g, &mut grad, &mut jac, &mut hess);
+
+    let mut short = Ocp::new(plant.clone(), short_n).unwrap();
+    let s = *short.layout();
+    let x0 = x[l.x(offset)..l.x(offset) + l.nx].to_vec();
+    let u_before = x[l.u(offset - 1)..l.u(offset - 1) + l.nu].to_vec();
+    short.set_problem(0, &x0, &u_before, &[]).unwrap();
+    let mut y = vec![0.0; short.n_vars()];
+    let mut mu = vec![0.0; short.n_cons()];
+    let stage_len = s.nx + s.nu + s.ns;
+    for i in 0..short_n.min(long_n - offset) {
+        let j = offset + i;
+        y[s.u(i)..s.u(i) + s.nu + s.ns].copy_from_slice(&x[l.u(j)..l.u(j) + l.nu + l.ns]);
+        y[s.x(i + 1)..s.x(i + 1) + s.nx].copy_from_slice(&x[l.x(j + 1)..l.x(j + 1) + l.nx]);
+        let rows = s.nx + s.ns;
+        mu[s.dynamics_row(i)..s.dynamics_row(i) + rows]
+            .copy_from_slice(&lambda[l.dynamics_row(j)..l.dynamics_row(j) + rows]);
+    }
+    let (mut g2, mut grad2) = (vec![0.0; short.n_cons()], vec![0.0; short.n_vars()]);
+    let mut jac2 = vec![0.0; short.jacobian_pattern().len()];
+    let mut hess2 = vec![0.0; short.hessian_pattern().len()];
+    short.evaluate_all(&y, 1.0, &mu, &mut g2, &mut grad2, &mut jac2, &mut hess2);
+
+    let nw = s.nx + s.nu;
+    let (first, per_stage) = (s.nu * (s.nu + 1) / 2, nw * (nw + 1) / 2);
+    let block =
+        |values: &[f64], j: usize| values[first + (j - 1) * per_stage..][..per_stage].to_vec();
+    for i in 1..long_n - offset {
+        assert_eq!(
+            block(&hess, offset + i),
+            block(&hess2, i),
+            "Hessian of stage {i}"
+        );
+        let (a, b) = (l.dynamics_row(offset + i), s.dynamics_row(i));
+        assert_eq!(
+            g[a..a + s.nx + s.ns],
+            g2[b..b + s.nx + s.ns],
+            "rows of stage {i}"
+        );
+    }
+    assert_eq!(stage_len, l.nx + l.nu + l.ns);
+}

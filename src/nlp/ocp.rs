@@ -23,6 +23,7 @@
 use super::{Nlp, Pattern, Stages, TerminalBox, TerminalCost};
 use crate::graph::{Derivatives, Workspace};
 use crate::model::Plant;
+use rayon::prelude::*;
 use std::ops::Range;
 use std::sync::Arc;
 use thiserror::Error;
@@ -194,7 +195,6 @@ pub struct Ocp {
     derivatives: Derivatives,
     workspace: Workspace<f64>,
     tape_inputs: Vec<f64>,
-    weights: Vec<f64>,
     /// Per stage: the step tape's outputs `(x⁺, terms, y)`.
     stage_values: Vec<f64>,
     /// Per stage: the Jacobian of the outputs wrt `(x_j, u_j)`, row-major.
@@ -264,7 +264,6 @@ impl Ocp {
             derivatives: Derivatives::new(tape, &wrt),
             workspace: tape.workspace(),
             tape_inputs: vec![0.0; l.n_base()],
-            weights: vec![0.0; n_out],
             stage_values: vec![0.0; horizon * n_out],
             stage_jacobians: vec![0.0; horizon * n_out * nw],
             terminal_value: 0.0,
@@ -572,25 +571,6 @@ impl Ocp {
         self.remember(x, Cached::Jacobians);
     }
 
-    /// Step-tape output weights of stage `j` in `σ f + λᵀ g`.
-    fn stage_weights(&mut self, j: usize, objective_factor: f64, multipliers: &[f64]) {
-        let l = self.layout;
-        let nt = self.n_terms();
-        let ny0 = self.outputs_offset();
-        self.weights.fill(0.0);
-        let row = l.dynamics_row(j);
-        for i in 0..l.nx {
-            self.weights[i] = -multipliers[row + i];
-        }
-        for t in 0..nt {
-            self.weights[l.nx + t] = -objective_factor;
-        }
-        for (k, side) in self.sides.iter().enumerate() {
-            self.weights[ny0 + side.output] +=
-                multipliers[l.soft_row(j) + k] * side.sign * side.weight;
-        }
-    }
-
     /// Columns of the stage derivatives that are variables: all of `(x_j, u_j)` for
     /// `j ≥ 1`, only `u_0` for `j = 0`.
     fn stage_columns(&self, j: usize) -> Range<usize> {
@@ -747,7 +727,8 @@ impl Ocp {
     }
 
     /// Stage Hessians (and, with them, values and Jacobians) at `x`; writes the Hessian
-    /// values in pattern order.
+    /// values in pattern order. Long horizons (the season optimum) are swept in parallel,
+    /// one contiguous block of stages per thread.
     fn hessian_sweep(
         &mut self,
         x: &[f64],
@@ -757,34 +738,150 @@ impl Ocp {
     ) {
         let l = self.layout;
         let (n_out, nw) = (self.n_out(), self.nw());
-        let plant = Arc::clone(&self.plant);
-        let mut k = 0;
-        for j in 0..l.horizon {
-            self.stage_weights(j, objective_factor, multipliers);
-            self.pack(x, j);
-            let e = self
-                .derivatives
-                .hessian(plant.step_tape(), &self.tape_inputs, &self.weights);
-            self.stage_values[j * n_out..(j + 1) * n_out].copy_from_slice(&e.values);
-            self.stage_jacobians[j * n_out * nw..(j + 1) * n_out * nw].copy_from_slice(&e.jacobian);
-            let cols = if j == 0 { l.nx..nw } else { 0..nw };
-            for a in cols.clone() {
-                for b in cols.start..=a {
-                    values[k] = e.hessian[a * nw + b];
-                    k += 1;
-                }
+        let first_len = l.nu * (l.nu + 1) / 2;
+        let stage_len = nw * (nw + 1) / 2;
+        let sweep = StageSweep {
+            plant: &self.plant,
+            layout: l,
+            sides: &self.sides,
+            state: &self.state,
+            forecast: &self.forecast,
+            params: &self.params,
+            x,
+            objective_factor,
+            multipliers,
+            n_terms: self.plant.stage_terms.len(),
+        };
+        let threads = rayon::current_num_threads().min(l.horizon / PARALLEL_STAGES);
+        let (hessian_stages, terminal) =
+            values.split_at_mut(first_len + (l.horizon - 1) * stage_len);
+        if threads <= 1 {
+            sweep.run(
+                0,
+                &mut self.derivatives,
+                &mut self.stage_values,
+                &mut self.stage_jacobians,
+                hessian_stages,
+            );
+        } else {
+            // Block b holds stages [b·per, (b+1)·per) (the last block the rest).
+            let per = l.horizon.div_ceil(threads);
+            let mut blocks = Vec::with_capacity(threads);
+            let (mut sv, mut sj, mut hv) = (
+                &mut self.stage_values[..],
+                &mut self.stage_jacobians[..],
+                hessian_stages,
+            );
+            let mut start = 0;
+            while start < l.horizon {
+                let count = per.min(l.horizon - start);
+                let hessian_count = if start == 0 {
+                    first_len + (count - 1) * stage_len
+                } else {
+                    count * stage_len
+                };
+                let (a, rest_v) = sv.split_at_mut(count * n_out);
+                let (b, rest_j) = sj.split_at_mut(count * n_out * nw);
+                let (c, rest_h) = hv.split_at_mut(hessian_count);
+                blocks.push((start, a, b, c));
+                (sv, sj, hv) = (rest_v, rest_j, rest_h);
+                start += count;
             }
+            let derivatives = &self.derivatives;
+            blocks.into_par_iter().for_each(|(start, a, b, c)| {
+                sweep.run(start, &mut derivatives.clone(), a, b, c);
+            });
         }
         self.evaluate_terminal(x);
         if self.terminal_cost.is_some() {
+            let mut k = 0;
             for a in 0..l.nx {
                 for b in 0..=a {
-                    values[k] = objective_factor * self.terminal_hessian[a * l.nx + b];
+                    terminal[k] = objective_factor * self.terminal_hessian[a * l.nx + b];
                     k += 1;
                 }
             }
         }
         self.remember(x, Cached::Jacobians);
+    }
+}
+
+/// Horizons of at least this many stages per thread are swept in parallel.
+const PARALLEL_STAGES: usize = 64;
+
+/// What one stage's derivative sweep reads.
+struct StageSweep<'a> {
+    plant: &'a Arc<Plant>,
+    layout: OcpLayout,
+    sides: &'a [SoftSide],
+    state: &'a [f64],
+    forecast: &'a [f64],
+    params: &'a [f64],
+    x: &'a [f64],
+    objective_factor: f64,
+    multipliers: &'a [f64],
+    n_terms: usize,
+}
+
+impl StageSweep<'_> {
+    /// Sweeps the stages from `start` on, as many as `values` has room for; `values`,
+    /// `jacobians` and `hessian` are those stages' slices.
+    fn run(
+        &self,
+        start: usize,
+        derivatives: &mut Derivatives,
+        values: &mut [f64],
+        jacobians: &mut [f64],
+        hessian: &mut [f64],
+    ) {
+        let l = self.layout;
+        let pl = self.plant.layout;
+        let tape = self.plant.step_tape();
+        let n_out = tape.n_outputs();
+        let nw = l.nx + l.nu;
+        let ny0 = l.nx + self.n_terms;
+        let mut inputs = vec![0.0; pl.n_base()];
+        let mut weights = vec![0.0; n_out];
+        let mut k = 0;
+        for (i, (vals, jac)) in values
+            .chunks_mut(n_out)
+            .zip(jacobians.chunks_mut(n_out * nw))
+            .enumerate()
+        {
+            let j = start + i;
+            // Weights of the outputs in the Lagrangian.
+            weights.fill(0.0);
+            let row = l.dynamics_row(j);
+            for (w, m) in weights[..l.nx].iter_mut().zip(&self.multipliers[row..]) {
+                *w = -m;
+            }
+            weights[l.nx..l.nx + self.n_terms].fill(-self.objective_factor);
+            for (q, side) in self.sides.iter().enumerate() {
+                weights[ny0 + side.output] +=
+                    self.multipliers[l.soft_row(j) + q] * side.sign * side.weight;
+            }
+            // The tape's inputs (x_j, u_j, d_j, p).
+            let xj = if j == 0 {
+                self.state
+            } else {
+                &self.x[l.x(j)..l.x(j) + l.nx]
+            };
+            inputs[..l.nx].copy_from_slice(xj);
+            inputs[pl.u(0)..pl.u(0) + l.nu].copy_from_slice(&self.x[l.u(j)..l.u(j) + l.nu]);
+            inputs[pl.d(0)..pl.d(0) + pl.nd]
+                .copy_from_slice(&self.forecast[j * pl.nd..(j + 1) * pl.nd]);
+            inputs[pl.p(0)..pl.p(0) + pl.np].copy_from_slice(self.params);
+            let e = derivatives.hessian(tape, &inputs, &weights);
+            vals.copy_from_slice(&e.values);
+            jac.copy_from_slice(&e.jacobian);
+            let cols = if j == 0 { l.nx..nw } else { 0..nw };
+            for a in cols.clone() {
+                for b in cols.start..=a {
+                    hessian[k] = e.hessian[a * nw + b];
+                    k += 1;
+                }
+            }
+        }
     }
 }
 

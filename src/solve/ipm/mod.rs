@@ -76,7 +76,7 @@ impl Default for IpmOptions {
             tolerance: 1e-8,
             acceptable_tolerance: 1e-6,
             acceptable_iterations: 10,
-            initial_mu: 0.1,
+            initial_mu: 1e-3,
             warm_start_mu: 1e-6,
             bound_push: 1e-2,
             warm_push: 1e-4,
