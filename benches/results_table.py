@@ -9,8 +9,6 @@ import os
 import sys
 
 ROOT = os.path.join(os.path.dirname(__file__), "..", "runs", "results")
-# `ghm optimum ... --solver ipopt` on the same season (docs/benchmarks.md).
-OPTIMUM = {"lettuce-thesis": (5.1772, 4.7634), "lettuce": (3.8512, 3.3849)}
 NAMES = {"lettuce-thesis": "thesis-code variant (`lettuce-thesis.ghm`)",
          "lettuce": "paper variant (`lettuce.ghm`)"}
 CONTROLLERS = [("mpc", "MPC"), ("rlmpc-sac", "RL-MPC (SAC)"),
@@ -23,6 +21,14 @@ def load(name):
         return None
     with open(path) as f:
         return json.load(f)["metrics"]
+
+
+def optimum(variant):
+    """(EPI, cumulative reward) of the season optimum, from the sweep's `ghm optimum` run."""
+    m = load(f"{variant}-optimum")
+    if m is None:
+        sys.exit(f"no {ROOT}/{variant}-optimum/summary.json: run benches/rlmpc_sweep.sh first")
+    return m["epi"], m["cumulative_reward"]
 
 
 COLOURS = {"mpc": "#1f77b4", "rlmpc-sac": "#d62728", "rlmpc-expert": "#2ca02c",
@@ -41,7 +47,7 @@ def svg_plot(variant, horizons, path):
         points = [(h, m["cumulative_reward"]) for h, m in points if m]
         if points:
             series.append((label, COLOURS[key], points))
-    levels = [("optimum", "#000000", OPTIMUM[variant][1])]
+    levels = [("optimum", "#000000", optimum(variant)[1])]
     for alone, label, colour in [("agent", "SAC agent alone", "#d62728")]:
         m = load(f"{variant}-{alone}")
         if m:
@@ -102,7 +108,7 @@ def main():
         for variant in NAMES:
             svg_plot(variant, horizons, os.path.join(svg_dir, f"results-{variant}.svg"))
     for variant, title in NAMES.items():
-        opt_epi, opt_reward = OPTIMUM[variant]
+        opt_epi, opt_reward = optimum(variant)
         print(f"### {title}\n")
         print(f"Season optimum: EPI {opt_epi:.4f}, cumulative reward {opt_reward:.4f} €/m².\n")
         for alone, label in [("agent", "SAC agent alone"), ("expert", "expert alone")]:

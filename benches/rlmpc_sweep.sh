@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The results of docs/results.md: the 40-day Venlo season for H = 1..6 h, both model
 # variants, under plain MPC, RL-MPC with the SAC and the expert guide, and RL-MPC-VFO
-# (SAC guide), plus the agent and the expert alone; all with the agents and value networks
+# (SAC guide), plus the agent and the expert alone and the season optimum (`ghm optimum`); all with the agents and value networks
 # shipped under models/agents/. Each run writes runs/results/<variant>-<controller>[-<H>h]/
 # summary.json; finished runs are kept, so the script resumes where it stopped. JOBS runs
 # in parallel (default 2). Tabulate with benches/results_table.py. Needs ../shared.
@@ -13,6 +13,7 @@ weather="--weather ../shared/data/venlo2014_30min_model_units.csv --start-row 13
 horizons=${HORIZONS:-"1 2 3 4 5 6"}
 list=()
 for variant in lettuce-thesis lettuce; do
+  list+=("$variant-optimum|optimum models/$variant.ghm")
   list+=("$variant-agent|policy models/$variant.ghm")
   list+=("$variant-expert|policy models/$variant.ghm --expert")
   for h in $horizons; do
