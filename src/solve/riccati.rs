@@ -210,6 +210,13 @@ impl Riccati {
     /// Factorises with `δ · shift` added to every `H_k` and to `H_N`. Fails at the first
     /// stage (going backwards) whose reduced Hessian `R̂_k` is not positive definite.
     pub fn factor(&mut self, delta: f64) -> Result<(), WrongInertia> {
+        self.factor_from(delta, 0)
+    }
+
+    /// Like [`Riccati::factor`], with `δ · shift` added only to the stages from `first` on
+    /// (and to `H_N`): the stages a failed factorisation named, and those after them,
+    /// where the missing curvature comes from.
+    pub fn factor_from(&mut self, delta: f64, first: usize) -> Result<(), WrongInertia> {
         self.factored = false;
         let t = &self.terminal;
         self.p_terminal.copy_from(&t.h);
@@ -222,6 +229,7 @@ impl Riccati {
             let f = &mut done[k];
             let s = &self.stages[k];
             let (nz, nv) = (s.nz(), s.nv());
+            let delta = if k >= first { delta } else { 0.0 };
             // PA, PB with the next stage's P.
             next_p.mul_to(&s.a, &mut f.pa);
             next_p.mul_to(&s.b, &mut f.pb);

@@ -9,8 +9,10 @@
 //! * Newton step: a Riccati recursion over the stages ([`super::riccati`],
 //!   [`crate::nlp::Stages`]), `O(N)`; its Cholesky factorisations are the inertia test.
 //!   When the reduced Hessian is not positive definite, `δ / D²` (`D` a variable's range)
-//!   is added to the diagonal, with IPOPT's schedule (1e-4 the first time, a third of the
-//!   last value after that, ×100 or ×8 per failure). No convexification: where the
+//!   is added to the diagonal of the stage that failed and the stages after it (the
+//!   curvature a terminal cost lacks is not made up on the first stages), with IPOPT's
+//!   schedule (1e-4 the first time, a third of the last value after that, ×100 or ×8 per
+//!   failure), then narrowed by bisection towards the threshold. No convexification: where the
 //!   reduced Hessian is positive definite the exact Newton step is taken, and the
 //!   convergence is quadratic.
 //! * Globalisation: IPOPT's filter line search on the barrier objective and the ℓ₁
@@ -280,9 +282,10 @@ impl Ipm {
     /// step run to the bound that ends that direction, where the barrier's curvature
     /// takes over.
     fn factor(riccati: &mut Riccati, last_delta: &mut f64) -> Option<f64> {
-        if riccati.factor(0.0).is_ok() {
-            return Some(0.0);
-        }
+        let mut first = match riccati.factor(0.0) {
+            Ok(()) => return Some(0.0),
+            Err(e) => e.stage,
+        };
         let mut delta = if *last_delta == 0.0 {
             1e-4
         } else {
@@ -290,26 +293,30 @@ impl Ipm {
         };
         let growth = if *last_delta == 0.0 { 100.0 } else { 8.0 };
         let mut failed = delta / growth;
-        while delta <= 1e20 {
-            if riccati.factor(delta).is_ok() {
-                break;
+        loop {
+            match riccati.factor_from(delta, first) {
+                Ok(()) => break,
+                // The missing curvature shows up earlier: shift from there on, same δ.
+                Err(e) if e.stage < first => first = e.stage,
+                Err(_) => {
+                    failed = delta;
+                    delta *= growth;
+                    if delta > 1e20 {
+                        return None;
+                    }
+                }
             }
-            failed = delta;
-            delta *= growth;
-        }
-        if delta > 1e20 {
-            return None;
         }
         for _ in 0..4 {
             let middle = (failed * delta).sqrt();
-            if riccati.factor(middle).is_ok() {
+            if riccati.factor_from(middle, first).is_ok() {
                 delta = middle;
             } else {
                 failed = middle;
             }
         }
         // The factorisation of the last try may be a failed one: factorise `δ` again.
-        if riccati.factor(delta).is_err() {
+        if riccati.factor_from(delta, first).is_err() {
             return None;
         }
         *last_delta = delta;
