@@ -108,6 +108,34 @@ fn an_indefinite_terminal_hessian_is_solved_without_convexification() {
     assert!(a <= b + 1e-9 * b.abs(), "IPM {a} vs SQP {b}");
     // The exact Hessian needed correcting on the way (the test exercises that branch).
     assert!(ipm.inertia_corrections() > 0);
+    assert_eq!(
+        solution.stats.inertia_corrections,
+        ipm.inertia_corrections()
+    );
+}
+
+#[test]
+fn an_mpc_step_records_its_inertia_corrections() {
+    // The same saddle through the controller: the step's record carries the corrections
+    // its solves made (the column `inertia_corrections` of trajectory.csv).
+    let plant = plant("models/cstr.ghm");
+    let mut mpc = Mpc::new(plant.clone(), 10, Box::new(Ipm::default())).unwrap();
+    mpc.ocp_mut().set_terminal_cost(Some(Box::new(Saddle)));
+    let observation = ghm::control::Observation {
+        step: 0,
+        state: &[0.5, 350.0],
+        outputs: &[0.5, 350.0],
+        previous_input: &[300.0],
+        forecast: &[],
+    };
+    use ghm::control::Controller;
+    let decision = mpc.decide(&observation).unwrap();
+    assert!(
+        decision.record.inertia_corrections > 0,
+        "{:?}",
+        decision.record
+    );
+    assert!(decision.record.inertia_corrections <= decision.record.iterations);
 }
 
 /// `x_{k+1} = x_k + u_k` from `x_0 = 0`, `u_k ∈ [−1, 1]`: minimise

@@ -74,6 +74,7 @@ impl TrajectoryWriter {
                 "cumulative_reward",
                 "solve_ms",
                 "iterations",
+                "inertia_corrections",
                 "status",
                 "fallback",
                 "terminal_region",
@@ -125,6 +126,7 @@ impl StepSink for TrajectoryWriter {
         row.extend(nums.map(|v| format!("{v:e}")));
         row.push(format!("{:.4}", log.record.solve_time_s * 1e3));
         row.push(log.record.iterations.to_string());
+        row.push(log.record.inertia_corrections.to_string());
         row.push(log.record.status.clone());
         row.push(log.record.fallback.clone().unwrap_or_default());
         row.push(log.record.terminal_region.clone().unwrap_or_default());

@@ -39,6 +39,9 @@ pub struct StepRecord {
     pub solve_time_s: f64,
     /// Solver iterations, summed over every attempt at this step (0 without a solver).
     pub iterations: usize,
+    /// Iterations whose Hessian the solver had to correct (inertia corrections, curvature
+    /// shifts), summed over every attempt at this step.
+    pub inertia_corrections: usize,
     /// Solver status (empty for controllers without a solver).
     pub status: String,
     /// Which fallback produced the input, if the first choice failed.

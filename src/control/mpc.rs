@@ -207,13 +207,13 @@ impl Mpc {
     /// usually lies outside a region built around the shifted plan, and its first QP is
     /// then infeasible. The guided attempt is skipped when `guide_tried` (the step's first
     /// solve already started from that roll-out, and would fail the same way). Returns the
-    /// solution and the iterations of every attempt.
+    /// solution and the iterations and Hessian corrections of every attempt.
     fn solve_cold(
         &mut self,
         observation: &Observation,
         guide_tried: bool,
-    ) -> Result<(Solution, usize), ControlError> {
-        let mut iterations = 0;
+    ) -> Result<(Solution, Effort), ControlError> {
+        let mut effort = Effort::default();
         if let Some(guidance) = self.guidance.as_mut().filter(|_| !guide_tried) {
             guidance.prepare(
                 &mut self.ocp,
@@ -228,16 +228,15 @@ impl Mpc {
                 &mut self.ocp,
                 Start::cold(&self.start_x),
             );
+            effort.add(&guided);
             if guided.status.is_success() {
-                let n = guided.stats.iterations;
-                return Ok((guided, n));
+                return Ok((guided, effort));
             }
-            iterations += guided.stats.iterations;
         }
         self.ocp.initial_point(&mut self.start_x);
         let plain = self.solver.solve(&mut self.ocp, Start::cold(&self.start_x));
-        iterations += plain.stats.iterations;
-        Ok((plain, iterations))
+        effort.add(&plain);
+        Ok((plain, effort))
     }
 
     /// The fallback inputs when no solve succeeded.
@@ -261,6 +260,20 @@ impl Mpc {
         };
         self.ocp.plant().apply_limits(previous, &mut u);
         (u, path)
+    }
+}
+
+/// The iterations and Hessian corrections of one step's solves.
+#[derive(Debug, Clone, Copy, Default)]
+struct Effort {
+    iterations: usize,
+    corrections: usize,
+}
+
+impl Effort {
+    fn add(&mut self, solution: &Solution) {
+        self.iterations += solution.stats.iterations;
+        self.corrections += solution.stats.inertia_corrections;
     }
 }
 
@@ -297,7 +310,7 @@ impl Controller for Mpc {
             )
             .map_err(|e| ControlError::Other(e.to_string()))?;
         self.last_age += 1;
-        let mut iterations = 0;
+        let mut effort = Effort::default();
         let mut fallback = None;
         // Whether the first solve already started from a fresh roll-out of the guide.
         let mut guide_tried = false;
@@ -310,11 +323,12 @@ impl Controller for Mpc {
         };
         let warm_failed = solution.as_ref().is_some_and(|s| !s.status.is_success());
         if let Some(s) = &solution {
-            iterations += s.stats.iterations;
+            effort.add(s);
         }
         if solution.as_ref().is_none_or(|s| !s.status.is_success()) {
-            let (cold, cold_iterations) = self.solve_cold(observation, guide_tried)?;
-            iterations += cold_iterations;
+            let (cold, cold_effort) = self.solve_cold(observation, guide_tried)?;
+            effort.iterations += cold_effort.iterations;
+            effort.corrections += cold_effort.corrections;
             if warm_failed {
                 fallback = Some("cold_start".to_string());
             }
@@ -343,7 +357,8 @@ impl Controller for Mpc {
             input,
             record: StepRecord {
                 solve_time_s: clock.elapsed().as_secs_f64(),
-                iterations,
+                iterations: effort.iterations,
+                inertia_corrections: effort.corrections,
                 status: status.as_str().to_string(),
                 fallback,
                 terminal_region,

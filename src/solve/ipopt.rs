@@ -279,6 +279,7 @@ impl Solver for Ipopt {
                 time_s: time.elapsed().as_secs_f64(),
                 objective,
                 kkt,
+                inertia_corrections: 0,
             },
         }
     }

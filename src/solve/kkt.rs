@@ -125,6 +125,11 @@ pub(crate) fn residuals_of(
     out
 }
 
+/// Whether every value is finite (no NaN, no infinity).
+pub(crate) fn all_finite(values: &[f64]) -> bool {
+    values.iter().all(|v| v.is_finite())
+}
+
 /// Total violation `Σ` of the constraints `g_l ≤ g ≤ g_u` (the ℓ₁ infeasibility).
 pub(crate) fn l1_violation(g: &[f64], bounds: &Bounds) -> f64 {
     g.iter()

@@ -91,6 +91,10 @@ pub struct SolveStats {
     pub objective: f64,
     /// KKT residuals at the returned point.
     pub kkt: KktResiduals,
+    /// Iterations whose Hessian had to be corrected before the step: the interior
+    /// point's inertia corrections, SQP's curvature shifts (0 where a back-end does not
+    /// report it: IPOPT).
+    pub inertia_corrections: usize,
 }
 
 /// A primal-dual point and how it was reached.

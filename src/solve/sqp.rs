@@ -30,7 +30,7 @@
 //! (shifted in time by the caller); from a shifted solution most MPC steps converge in
 //! two iterations.
 
-use super::kkt::{l1_violation, residuals_of, Bounds, PointInfo};
+use super::kkt::{all_finite, l1_violation, residuals_of, Bounds, PointInfo};
 use super::qp::{QpData, QpOutcome, QpSolver};
 use super::{KktResiduals, Solution, SolveStats, SolveStatus, Solver, Start};
 use crate::nlp::Nlp;
@@ -141,6 +141,8 @@ struct Work {
     restored_g: Vec<f64>,
     /// The curvature of the last direction.
     curvature: Curvature,
+    /// Iterations of the current solve whose step came from a corrected curvature.
+    corrected: usize,
     /// For each Hessian entry, its block and position in the block.
     entry_place: Vec<(usize, usize, usize)>,
 }
@@ -424,10 +426,6 @@ fn project_into(x: &mut [f64], bounds: &Bounds) {
     }
 }
 
-fn all_finite(values: &[f64]) -> bool {
-    values.iter().all(|v| v.is_finite())
-}
-
 impl Solver for Sqp {
     fn name(&self) -> &'static str {
         "sqp"
@@ -438,6 +436,16 @@ impl Solver for Sqp {
     }
 
     fn solve(&mut self, nlp: &mut dyn Nlp, start: Start<'_>) -> Solution {
+        self.work.corrected = 0;
+        let mut solution = self.solve_counted(nlp, start);
+        solution.stats.inertia_corrections = self.work.corrected;
+        solution
+    }
+}
+
+impl Sqp {
+    /// The solve; the curvature corrections are counted in `work.corrected`.
+    fn solve_counted(&mut self, nlp: &mut dyn Nlp, start: Start<'_>) -> Solution {
         let clock = Instant::now();
         let (n, m) = (nlp.n_vars(), nlp.n_cons());
         let bounds = Bounds::of(nlp);
@@ -468,6 +476,7 @@ impl Solver for Sqp {
                     time_s: clock.elapsed().as_secs_f64(),
                     objective,
                     kkt,
+                    inertia_corrections: 0,
                 },
             }
         };
@@ -692,6 +701,9 @@ impl Solver for Sqp {
                 continue;
             }
             stalled = false;
+            if self.work.curvature != Curvature::Exact {
+                self.work.corrected += 1;
+            }
             if trace {
                 eprintln!(
                     "sqp {iteration:3} f {objective:.12e} kkt {:.1e} {:.1e} {:.1e} alpha {alpha:.3} radius {radius:.2e}{}",

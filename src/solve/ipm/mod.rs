@@ -38,7 +38,7 @@
 mod filter;
 mod structure;
 
-use super::kkt::{residuals_of, Bounds, PointInfo};
+use super::kkt::{all_finite, residuals_of, Bounds, PointInfo};
 use super::riccati::Riccati;
 use super::{KktResiduals, Solution, SolveStats, SolveStatus, Solver, Start};
 use crate::nlp::Nlp;
@@ -137,11 +137,58 @@ impl Sides {
         }
     }
 
+    /// The barrier of entry `i` at value `v` with bound multipliers `zl`, `zu`: its
+    /// curvature `Σ = zl/(v − lo) + zu/(hi − v)` and its gradient `−μ/(v − lo) + μ/(hi − v)`
+    /// (each side only where its bound is finite).
+    fn barrier(&self, i: usize, v: f64, zl: f64, zu: f64, mu: f64) -> (f64, f64) {
+        let (mut sigma, mut gradient) = (0.0, 0.0);
+        if self.lower[i].is_finite() {
+            let s = self.slack_lower(i, v);
+            sigma += zl / s;
+            gradient -= mu / s;
+        }
+        if self.upper[i].is_finite() {
+            let s = self.slack_upper(i, v);
+            sigma += zu / s;
+            gradient += mu / s;
+        }
+        (sigma, gradient)
+    }
+
+    /// Adds entry `i`'s complementarity `|z·s − μ|` (largest) and its bound multipliers
+    /// (sum and count, for IPOPT's scaling) to `totals`.
+    fn complementarity(&self, i: usize, v: f64, zl: f64, zu: f64, mu: f64, totals: &mut Totals) {
+        if self.lower[i].is_finite() {
+            totals.add(zl, self.slack_lower(i, v), mu);
+        }
+        if self.upper[i].is_finite() {
+            totals.add(zu, self.slack_upper(i, v), mu);
+        }
+    }
+
     fn slack_lower(&self, i: usize, v: f64) -> f64 {
         v - self.lower[i]
     }
     fn slack_upper(&self, i: usize, v: f64) -> f64 {
         self.upper[i] - v
+    }
+}
+
+/// Complementarity totals of the optimality error.
+#[derive(Debug, Default)]
+struct Totals {
+    /// Largest `|z·s − μ|`.
+    largest: f64,
+    /// Sum and count of the bound multipliers.
+    sum: f64,
+    count: usize,
+}
+
+impl Totals {
+    fn add(&mut self, z: f64, slack: f64, mu: f64) {
+        self.largest = self.largest.max((z * slack - mu).abs());
+        self.sum += z;
+        self.count += 1;
     }
 }
 
@@ -385,10 +432,6 @@ impl Setup {
     }
 }
 
-fn all_finite(values: &[f64]) -> bool {
-    values.iter().all(|v| v.is_finite())
-}
-
 impl Solver for Ipm {
     fn name(&self) -> &'static str {
         "ipm"
@@ -419,6 +462,7 @@ impl Solver for Ipm {
                 time_s: clock.elapsed().as_secs_f64(),
                 objective: f64::NAN,
                 kkt: KktResiduals::default(),
+                inertia_corrections: 0,
             },
         };
         // The stage map, rebuilt when the problem's shape changed.
@@ -668,20 +712,9 @@ impl Ipm {
 
             // The condensed system.
             for i in 0..n {
-                let mut sigma = 0.0;
-                let mut g = ev.gradient[i];
-                if setup.vars.lower[i].is_finite() {
-                    let s = setup.vars.slack_lower(i, it.w[i]);
-                    sigma += it.zl[i] / s;
-                    g -= mu / s;
-                }
-                if setup.vars.upper[i].is_finite() {
-                    let s = setup.vars.slack_upper(i, it.w[i]);
-                    sigma += it.zu[i] / s;
-                    g += mu / s;
-                }
+                let (sigma, g) = setup.vars.barrier(i, it.w[i], it.zl[i], it.zu[i], mu);
                 diag[i] = sigma;
-                condensed[i] = g;
+                condensed[i] = ev.gradient[i] + g;
             }
             for r in 0..m {
                 sigma_t[r] = 0.0;
@@ -1062,6 +1095,7 @@ impl Ipm {
                 time_s: clock.elapsed().as_secs_f64(),
                 objective,
                 kkt,
+                inertia_corrections: self.corrections,
             },
         }
     }
@@ -1103,55 +1137,31 @@ fn optimality_error(
         scratch[c] += v * it.lambda[r];
     }
     let mut stationarity = 0.0_f64;
-    let mut complementarity = 0.0_f64;
     let mut primal = 0.0_f64;
-    let mut multiplier_sum = 0.0;
-    let mut multiplier_count = 0usize;
-    let mut bound_sum = 0.0;
-    let mut bound_count = 0usize;
+    let mut bounds = Totals::default();
     for (i, s) in scratch.iter().enumerate().take(n) {
         stationarity = stationarity.max((s - it.zl[i] + it.zu[i]).abs());
-        if setup.vars.lower[i].is_finite() {
-            complementarity =
-                complementarity.max((it.zl[i] * setup.vars.slack_lower(i, it.w[i]) - mu).abs());
-            bound_sum += it.zl[i];
-            bound_count += 1;
-        }
-        if setup.vars.upper[i].is_finite() {
-            complementarity =
-                complementarity.max((it.zu[i] * setup.vars.slack_upper(i, it.w[i]) - mu).abs());
-            bound_sum += it.zu[i];
-            bound_count += 1;
-        }
+        setup
+            .vars
+            .complementarity(i, it.w[i], it.zl[i], it.zu[i], mu, &mut bounds);
     }
+    let multiplier_sum: f64 = it.lambda.iter().map(|l| l.abs()).sum();
     for r in 0..m {
-        multiplier_sum += it.lambda[r].abs();
-        multiplier_count += 1;
         if setup.is_dynamics[r] {
             primal = primal.max((ev.c[r] - setup.target[r]).abs());
             continue;
         }
         primal = primal.max((ev.c[r] - it.t[r]).abs());
         stationarity = stationarity.max((-it.lambda[r] - it.vl[r] + it.vu[r]).abs());
-        if setup.rows.lower[r].is_finite() {
-            complementarity =
-                complementarity.max((it.vl[r] * setup.rows.slack_lower(r, it.t[r]) - mu).abs());
-            bound_sum += it.vl[r];
-            bound_count += 1;
-        }
-        if setup.rows.upper[r].is_finite() {
-            complementarity =
-                complementarity.max((it.vu[r] * setup.rows.slack_upper(r, it.t[r]) - mu).abs());
-            bound_sum += it.vu[r];
-            bound_count += 1;
-        }
+        setup
+            .rows
+            .complementarity(r, it.t[r], it.vl[r], it.vu[r], mu, &mut bounds);
     }
     const S_MAX: f64 = 100.0;
-    let s_d = ((multiplier_sum + bound_sum) / ((multiplier_count + bound_count).max(1) as f64))
-        .max(S_MAX)
-        / S_MAX;
-    let s_c = (bound_sum / (bound_count.max(1) as f64)).max(S_MAX) / S_MAX;
-    (stationarity / s_d).max(primal).max(complementarity / s_c)
+    let s_d =
+        ((multiplier_sum + bounds.sum) / ((m + bounds.count).max(1) as f64)).max(S_MAX) / S_MAX;
+    let s_c = (bounds.sum / (bounds.count.max(1) as f64)).max(S_MAX) / S_MAX;
+    (stationarity / s_d).max(primal).max(bounds.largest / s_c)
 }
 
 /// Per inequality row: `Σ_t` into `sigma_t`; returns `−μ/(t − t_l) + μ/(t_u − t)`.
@@ -1161,18 +1171,7 @@ fn barrier_row_terms(setup: &Setup, it: &Iterate, mu: f64, sigma_t: &mut [f64]) 
             if setup.is_dynamics[r] {
                 return 0.0;
             }
-            let mut term = 0.0;
-            let mut sigma = 0.0;
-            if setup.rows.lower[r].is_finite() {
-                let s = setup.rows.slack_lower(r, it.t[r]);
-                sigma += it.vl[r] / s;
-                term -= mu / s;
-            }
-            if setup.rows.upper[r].is_finite() {
-                let s = setup.rows.slack_upper(r, it.t[r]);
-                sigma += it.vu[r] / s;
-                term += mu / s;
-            }
+            let (sigma, term) = setup.rows.barrier(r, it.t[r], it.vl[r], it.vu[r], mu);
             sigma_t[r] = sigma;
             term
         })
@@ -1257,27 +1256,14 @@ fn complete_direction(
 fn barrier_slope(setup: &Setup, gradient: &[f64], it: &Iterate, d: &Direction, mu: f64) -> f64 {
     let mut slope = 0.0;
     for i in 0..setup.n {
-        let mut g = gradient[i];
-        if setup.vars.lower[i].is_finite() {
-            g -= mu / setup.vars.slack_lower(i, it.w[i]);
-        }
-        if setup.vars.upper[i].is_finite() {
-            g += mu / setup.vars.slack_upper(i, it.w[i]);
-        }
-        slope += g * d.w[i];
+        let (_, g) = setup.vars.barrier(i, it.w[i], 0.0, 0.0, mu);
+        slope += (gradient[i] + g) * d.w[i];
     }
     for r in 0..setup.m {
-        if setup.is_dynamics[r] {
-            continue;
+        if !setup.is_dynamics[r] {
+            let (_, g) = setup.rows.barrier(r, it.t[r], 0.0, 0.0, mu);
+            slope += g * d.t[r];
         }
-        let mut g = 0.0;
-        if setup.rows.lower[r].is_finite() {
-            g -= mu / setup.rows.slack_lower(r, it.t[r]);
-        }
-        if setup.rows.upper[r].is_finite() {
-            g += mu / setup.rows.slack_upper(r, it.t[r]);
-        }
-        slope += g * d.t[r];
     }
     slope
 }
