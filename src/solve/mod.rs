@@ -154,7 +154,7 @@ pub trait Solver {
     fn set_iteration_limit(&mut self, _limit: Option<usize>) {}
     /// The iterations a warm-started MPC solve should be allowed before a cold start is
     /// the better use of time: SQP converges in two or three from a shifted solution, an
-    /// interior-point method in about ten.
+    /// interior-point method in five to ten.
     fn warm_iteration_budget(&self) -> usize {
         15
     }

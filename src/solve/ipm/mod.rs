@@ -79,9 +79,9 @@ impl Default for IpmOptions {
             acceptable_tolerance: 1e-6,
             acceptable_iterations: 10,
             initial_mu: 1e-3,
-            warm_start_mu: 1e-6,
+            warm_start_mu: 1e-9,
             bound_push: 1e-2,
-            warm_push: 1e-4,
+            warm_push: 1e-7,
             trace: false,
         }
     }
