@@ -338,3 +338,29 @@ fn a_problem_without_stages_ends_with_numerical_error() {
     let s = solve(&mut chain, IpmOptions::default(), None);
     assert_eq!(s.status, SolveStatus::NumericalError);
 }
+
+#[test]
+fn a_terminal_cost_set_between_solves_is_seen() {
+    // Setting a terminal cost keeps the sizes of an Ocp but changes its Hessian pattern:
+    // an interior point reused across the change must rebuild its stage map and solve as
+    // a fresh one does.
+    let plant = plant("models/cstr.ghm");
+    let mut ocp = Ocp::new(plant.clone(), 10).unwrap();
+    ocp.set_problem(0, &[0.5, 350.0], &[300.0], &[]).unwrap();
+    let mut start = vec![0.0; ocp.n_vars()];
+    ocp.initial_point(&mut start);
+    let mut reused = Ipm::default();
+    assert!(reused
+        .solve(&mut ocp, Start::cold(&start))
+        .status
+        .is_success());
+    ocp.set_terminal_cost(Some(Box::new(Saddle)));
+    let again = reused.solve(&mut ocp, Start::cold(&start));
+    let fresh = Ipm::default().solve(&mut ocp, Start::cold(&start));
+    assert!(fresh.status.is_success());
+    assert_eq!(again.status, fresh.status);
+    // The same path: a stale map that drops the terminal Hessian may still end near the
+    // same point, but by other steps.
+    assert_eq!(again.stats.iterations, fresh.stats.iterations);
+    assert_eq!(again.x, fresh.x);
+}

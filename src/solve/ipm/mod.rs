@@ -41,7 +41,7 @@ mod structure;
 use super::kkt::{all_finite, residuals_of, Bounds, PointInfo};
 use super::riccati::Riccati;
 use super::{KktResiduals, Solution, SolveStats, SolveStatus, Solver, Start};
-use crate::nlp::Nlp;
+use crate::nlp::{Nlp, Pattern};
 use filter::Filter;
 use std::time::Instant;
 use structure::StageMap;
@@ -92,12 +92,22 @@ pub struct Ipm {
     /// Its tuning; may be changed between solves.
     pub options: IpmOptions,
     iteration_limit: Option<usize>,
-    /// The stage map and the Riccati workspace, kept while the problem's shape is the same.
-    layout: Option<(StageMap, Riccati, usize, usize)>,
+    /// The stage map and the Riccati workspace, kept while the problem's patterns are
+    /// the same (an `Ocp` keeps its sizes but changes its Hessian pattern when a terminal
+    /// cost comes or goes).
+    layout: Option<Layout>,
     /// The last inertia correction `δ` (0 when none was needed).
     last_delta: f64,
     /// Inertia corrections made by the last solve.
     corrections: usize,
+}
+
+/// The stage map of one problem shape, with the patterns it was built from.
+struct Layout {
+    map: StageMap,
+    riccati: Riccati,
+    jacobian: Pattern,
+    hessian: Pattern,
 }
 
 impl Default for Ipm {
@@ -166,6 +176,72 @@ impl Sides {
         }
     }
 
+    /// `Σ ln(slack)` of entry `i` over its finite bounds.
+    fn log_slacks(&self, i: usize, v: f64) -> f64 {
+        let mut sum = 0.0;
+        if self.lower[i].is_finite() {
+            sum += self.slack_lower(i, v).ln();
+        }
+        if self.upper[i].is_finite() {
+            sum += self.slack_upper(i, v).ln();
+        }
+        sum
+    }
+
+    /// Starting bound multipliers of entry `i` from a signed multiplier `nu` (positive on
+    /// the upper bound), each at least `μ / slack` (centred).
+    fn centred(&self, i: usize, v: f64, nu: f64, mu: f64) -> (f64, f64) {
+        let zl = if self.lower[i].is_finite() {
+            (-nu).max(mu / self.slack_lower(i, v))
+        } else {
+            0.0
+        };
+        let zu = if self.upper[i].is_finite() {
+            nu.max(mu / self.slack_upper(i, v))
+        } else {
+            0.0
+        };
+        (zl, zu)
+    }
+
+    /// The Newton step of entry `i`'s bound multipliers for a primal step `dv`:
+    /// `μ/s − z ∓ (z/s) dv`.
+    fn multiplier_step(
+        &self,
+        i: usize,
+        v: f64,
+        dv: f64,
+        (zl, zu): (f64, f64),
+        mu: f64,
+    ) -> (f64, f64) {
+        let dzl = if self.lower[i].is_finite() {
+            let s = self.slack_lower(i, v);
+            mu / s - zl - zl / s * dv
+        } else {
+            0.0
+        };
+        let dzu = if self.upper[i].is_finite() {
+            let s = self.slack_upper(i, v);
+            mu / s - zu + zu / s * dv
+        } else {
+            0.0
+        };
+        (dzl, dzu)
+    }
+
+    /// IPOPT's safeguard on entry `i`'s bound multipliers: each within
+    /// `[μ/(κ s), κ μ/s]`, `κ = 1e10`.
+    fn safeguard(&self, i: usize, v: f64, zl: &mut f64, zu: &mut f64, mu: f64) {
+        const KAPPA: f64 = 1e10;
+        let clamp = |z: &mut f64, s: f64| *z = z.max(mu / (KAPPA * s)).min(KAPPA * mu / s);
+        if self.lower[i].is_finite() {
+            clamp(zl, self.slack_lower(i, v));
+        }
+        if self.upper[i].is_finite() {
+            clamp(zu, self.slack_upper(i, v));
+        }
+    }
+
     fn slack_lower(&self, i: usize, v: f64) -> f64 {
         v - self.lower[i]
     }
@@ -210,23 +286,15 @@ fn relaxed(lower: &[f64], upper: &[f64]) -> Sides {
 
 /// `v` moved inside `[lo, hi]` by IPOPT's bound push with fraction `kappa`.
 fn pushed(v: f64, lo: f64, hi: f64, kappa: f64) -> f64 {
-    let range = hi - lo;
+    // The push from a bound: relative to the bound's size, at most `kappa` of the range
+    // (an infinite range, one-sided bounds, leaves the first).
+    let push = |bound: f64| (kappa * bound.abs().max(1.0)).min(kappa * (hi - lo));
     let mut v = v;
     if lo.is_finite() {
-        let p = (kappa * lo.abs().max(1.0)).min(if range.is_finite() {
-            kappa * range
-        } else {
-            f64::INFINITY
-        });
-        v = v.max(lo + p);
+        v = v.max(lo + push(lo));
     }
     if hi.is_finite() {
-        let p = (kappa * hi.abs().max(1.0)).min(if range.is_finite() {
-            kappa * range
-        } else {
-            f64::INFINITY
-        });
-        v = v.min(hi - p);
+        v = v.min(hi - push(hi));
     }
     if lo.is_finite() && hi.is_finite() && !(v > lo && v < hi) {
         v = 0.5 * (lo + hi);
@@ -354,16 +422,18 @@ impl Ipm {
                 }
             }
         }
+        let mut current = true;
         for _ in 0..4 {
             let middle = (failed * delta).sqrt();
-            if riccati.factor_from(middle, first).is_ok() {
+            current = riccati.factor_from(middle, first).is_ok();
+            if current {
                 delta = middle;
             } else {
                 failed = middle;
             }
         }
-        // The factorisation of the last try may be a failed one: factorise `δ` again.
-        if riccati.factor_from(delta, first).is_err() {
+        // The last try failed: the factorisation held is not `δ`'s.
+        if !current && riccati.factor_from(delta, first).is_err() {
             return None;
         }
         *last_delta = delta;
@@ -403,27 +473,12 @@ impl Setup {
 
     /// `φ = f − μ Σ ln(slacks)`.
     fn barrier(&self, f: f64, w: &[f64], t: &[f64], mu: f64) -> f64 {
-        let mut sum = 0.0;
-        for (i, &v) in w.iter().enumerate() {
-            if self.vars.lower[i].is_finite() {
-                sum += self.vars.slack_lower(i, v).ln();
-            }
-            if self.vars.upper[i].is_finite() {
-                sum += self.vars.slack_upper(i, v).ln();
-            }
-        }
-        for (r, &v) in t.iter().enumerate() {
-            if self.is_dynamics[r] {
-                continue;
-            }
-            if self.rows.lower[r].is_finite() {
-                sum += self.rows.slack_lower(r, v).ln();
-            }
-            if self.rows.upper[r].is_finite() {
-                sum += self.rows.slack_upper(r, v).ln();
-            }
-        }
-        let phi = f - mu * sum;
+        let vars: f64 = (0..self.n).map(|i| self.vars.log_slacks(i, w[i])).sum();
+        let rows: f64 = (0..self.m)
+            .filter(|&r| !self.is_dynamics[r])
+            .map(|r| self.rows.log_slacks(r, t[r]))
+            .sum();
+        let phi = f - mu * (vars + rows);
         if phi.is_nan() {
             f64::INFINITY
         } else {
@@ -465,29 +520,40 @@ impl Solver for Ipm {
                 inertia_corrections: 0,
             },
         };
-        // The stage map, rebuilt when the problem's shape changed.
-        let shape = (n, m);
-        let fits = self
-            .layout
-            .as_ref()
-            .is_some_and(|(_, _, nn, mm)| (*nn, *mm) == shape);
+        // The stage map, rebuilt when the problem's patterns changed.
+        let fits = self.layout.as_ref().is_some_and(|l| {
+            l.jacobian == *nlp.jacobian_pattern() && l.hessian == *nlp.hessian_pattern()
+        });
         if !fits {
             let Some(stages) = nlp.stages() else {
                 return fail(SolveStatus::NumericalError, x);
             };
-            match StageMap::new(&stages, n, m, nlp.jacobian_pattern(), nlp.hessian_pattern()) {
+            let (jacobian, hessian) = (nlp.jacobian_pattern(), nlp.hessian_pattern());
+            match StageMap::new(&stages, n, m, jacobian, hessian) {
                 Ok(map) => {
-                    let riccati = map.riccati();
-                    self.layout = Some((map, riccati, n, m));
+                    self.layout = Some(Layout {
+                        riccati: map.riccati(),
+                        map,
+                        jacobian: jacobian.clone(),
+                        hessian: hessian.clone(),
+                    });
                 }
                 Err(_) => return fail(SolveStatus::NumericalError, x),
             }
         }
-        let Some((map, mut riccati, _, _)) = self.layout.take() else {
+        let Some(mut layout) = self.layout.take() else {
             return fail(SolveStatus::NumericalError, x);
         };
-        let solution = self.run(nlp, &map, &mut riccati, bounds, &mut x, start, clock);
-        self.layout = Some((map, riccati, n, m));
+        let solution = self.run(
+            nlp,
+            &layout.map,
+            &mut layout.riccati,
+            bounds,
+            &x,
+            start,
+            clock,
+        );
+        self.layout = Some(layout);
         if trace {
             eprintln!(
                 "ipm end: {:?} after {} iterations, KKT {:.1e}",
@@ -508,7 +574,7 @@ impl Ipm {
         map: &StageMap,
         riccati: &mut Riccati,
         bounds: Bounds,
-        x: &mut [f64],
+        x: &[f64],
         start: Start<'_>,
         clock: Instant,
     ) -> Solution {
@@ -562,9 +628,10 @@ impl Ipm {
             vu: vec![0.0; m],
         };
         it.lambda.resize(m, 0.0);
-        let nu = start
+        let mut nu = start
             .bound_multipliers
             .map_or(vec![0.0; n], <[f64]>::to_vec);
+        nu.resize(n, 0.0);
         for i in 0..n {
             let (lo, hi) = (setup.vars.lower[i], setup.vars.upper[i]);
             let k = if warm {
@@ -573,14 +640,7 @@ impl Ipm {
                 kappa
             };
             it.w[i] = pushed(it.w[i], lo, hi, k);
-            if lo.is_finite() {
-                let s = it.w[i] - lo;
-                it.zl[i] = (-nu.get(i).copied().unwrap_or(0.0)).max(mu / s);
-            }
-            if hi.is_finite() {
-                let s = hi - it.w[i];
-                it.zu[i] = nu.get(i).copied().unwrap_or(0.0).max(mu / s);
-            }
+            (it.zl[i], it.zu[i]) = setup.vars.centred(i, it.w[i], nu[i], mu);
         }
         let mut c = vec![0.0; m];
         let f0 = nlp.objective(&it.w);
@@ -602,15 +662,7 @@ impl Ipm {
             }
             let (lo, hi) = (setup.rows.lower[r], setup.rows.upper[r]);
             it.t[r] = pushed(c[r], lo, hi, kappa);
-            let lam = it.lambda[r];
-            if lo.is_finite() {
-                let s = it.t[r] - lo;
-                it.vl[r] = (-lam).max(mu / s);
-            }
-            if hi.is_finite() {
-                let s = hi - it.t[r];
-                it.vu[r] = lam.max(mu / s);
-            }
+            (it.vl[r], it.vu[r]) = setup.rows.centred(r, it.t[r], it.lambda[r], mu);
         }
 
         let jp = nlp.jacobian_pattern().clone();
@@ -643,6 +695,8 @@ impl Ipm {
         let mut trial_t = vec![0.0; m];
         let mut trial_c = vec![0.0; m];
         let mut new_lambda = vec![0.0; m];
+        let mut dyn_residual = vec![0.0; m];
+        let mut row_terms = vec![0.0; m];
 
         for iteration in 0..=max_iterations {
             ev.f = nlp.evaluate_all(
@@ -717,14 +771,13 @@ impl Ipm {
                 condensed[i] = ev.gradient[i] + g;
             }
             for r in 0..m {
-                sigma_t[r] = 0.0;
-                residual_i[r] = 0.0;
-                if setup.is_dynamics[r] {
-                    continue;
-                }
-                residual_i[r] = ev.c[r] - it.t[r];
+                residual_i[r] = if setup.is_dynamics[r] {
+                    0.0
+                } else {
+                    ev.c[r] - it.t[r]
+                };
             }
-            let row_terms = barrier_row_terms(&setup, &it, mu, &mut sigma_t);
+            barrier_row_terms(&setup, &it, mu, &mut sigma_t, &mut row_terms);
             add_row_gradient(
                 &jp,
                 &ev.jacobian,
@@ -742,9 +795,8 @@ impl Ipm {
                 &sigma_t,
                 &setup.shift,
             );
-            let mut dyn_residual = ev.c.clone();
             for r in 0..m {
-                dyn_residual[r] -= setup.target[r];
+                dyn_residual[r] = ev.c[r] - setup.target[r];
             }
             map.fill_vectors(riccati, &condensed, &dyn_residual);
             let Some(delta) = Self::factor(riccati, &mut self.last_delta) else {
@@ -857,7 +909,6 @@ impl Ipm {
                         &jp,
                         &ev,
                         &it,
-                        &d,
                         alpha,
                         theta,
                         phi,
@@ -928,7 +979,16 @@ impl Ipm {
             setup.rows.move_bounds(&it.t, |r| !dynamics[r]);
             safeguard_multipliers(&setup, &mut it, mu);
         }
-        unreachable_end(self, nlp, &setup, it, max_iterations, clock)
+        // The last iteration returns inside the loop; this is for the type checker.
+        self.finish(
+            nlp,
+            &setup,
+            it,
+            SolveStatus::MaxIterations,
+            max_iterations,
+            f64::NAN,
+            clock,
+        )
     }
 
     /// Up to four second-order corrections of a rejected full step: the dynamics and row
@@ -941,10 +1001,9 @@ impl Ipm {
         map: &StageMap,
         riccati: &mut Riccati,
         setup: &Setup,
-        jp: &crate::nlp::Pattern,
+        jp: &Pattern,
         ev: &Eval,
         it: &Iterate,
-        d: &Direction,
         alpha: f64,
         theta: f64,
         phi: f64,
@@ -973,7 +1032,6 @@ impl Ipm {
             })
             .collect();
         let mut theta_old = setup.violation(&c_trial, trial_t);
-        let mut alpha_soc = alpha;
         let mut step = vec![0.0; n];
         let mut lambda = it.lambda.clone();
         let mut step_t = vec![0.0; m];
@@ -1002,7 +1060,7 @@ impl Ipm {
                 }
             }
             let tau = (1.0 - mu).max(0.99);
-            alpha_soc = max_step(&it.w, &step, &setup.vars, tau, |_| true).min(max_step(
+            let alpha_soc = max_step(&it.w, &step, &setup.vars, tau, |_| true).min(max_step(
                 &it.t,
                 &step_t,
                 &setup.rows,
@@ -1033,7 +1091,6 @@ impl Ipm {
                 }
             }
         }
-        let _ = (alpha_soc, d);
         None
     }
 
@@ -1101,31 +1158,11 @@ impl Ipm {
     }
 }
 
-/// The loop always returns from inside; kept for the type checker.
-fn unreachable_end(
-    ipm: &Ipm,
-    nlp: &mut dyn Nlp,
-    setup: &Setup,
-    it: Iterate,
-    iterations: usize,
-    clock: Instant,
-) -> Solution {
-    ipm.finish(
-        nlp,
-        setup,
-        it,
-        SolveStatus::MaxIterations,
-        iterations,
-        f64::NAN,
-        clock,
-    )
-}
-
 /// IPOPT's optimality error `E_μ`: stationarity scaled by `s_d`, the constraint
 /// violation, complementarity against `μ` scaled by `s_c`.
 fn optimality_error(
     setup: &Setup,
-    jp: &crate::nlp::Pattern,
+    jp: &Pattern,
     ev: &Eval,
     it: &Iterate,
     mu: f64,
@@ -1164,23 +1201,27 @@ fn optimality_error(
     (stationarity / s_d).max(primal).max(bounds.largest / s_c)
 }
 
-/// Per inequality row: `Σ_t` into `sigma_t`; returns `−μ/(t − t_l) + μ/(t_u − t)`.
-fn barrier_row_terms(setup: &Setup, it: &Iterate, mu: f64, sigma_t: &mut [f64]) -> Vec<f64> {
-    (0..setup.m)
-        .map(|r| {
-            if setup.is_dynamics[r] {
-                return 0.0;
-            }
-            let (sigma, term) = setup.rows.barrier(r, it.t[r], it.vl[r], it.vu[r], mu);
-            sigma_t[r] = sigma;
-            term
-        })
-        .collect()
+/// Per inequality row: `Σ_t` into `sigma_t`, `−μ/(t − t_l) + μ/(t_u − t)` into
+/// `row_terms` (both 0 on dynamics rows).
+fn barrier_row_terms(
+    setup: &Setup,
+    it: &Iterate,
+    mu: f64,
+    sigma_t: &mut [f64],
+    row_terms: &mut [f64],
+) {
+    for r in 0..setup.m {
+        (sigma_t[r], row_terms[r]) = if setup.is_dynamics[r] {
+            (0.0, 0.0)
+        } else {
+            setup.rows.barrier(r, it.t[r], it.vl[r], it.vu[r], mu)
+        };
+    }
 }
 
 /// Adds `J_Iᵀ (Σ_t r_I + row_terms)` to the condensed gradient.
 fn add_row_gradient(
-    jp: &crate::nlp::Pattern,
+    jp: &Pattern,
     jacobian: &[f64],
     setup: &Setup,
     sigma_t: &[f64],
@@ -1199,7 +1240,7 @@ fn add_row_gradient(
 #[allow(clippy::too_many_arguments)]
 fn complete_direction(
     setup: &Setup,
-    jp: &crate::nlp::Pattern,
+    jp: &Pattern,
     jacobian: &[f64],
     it: &Iterate,
     mu: f64,
@@ -1227,28 +1268,16 @@ fn complete_direction(
         d.t[r] += residual_i[r];
         // λ⁺ = Σ_t Δt − μ/(t − t_l) + μ/(t_u − t).
         d.lambda[r] = sigma_t[r] * d.t[r] + row_terms[r] - it.lambda[r];
-        d.vl[r] = 0.0;
-        d.vu[r] = 0.0;
-        if setup.rows.lower[r].is_finite() {
-            let s = setup.rows.slack_lower(r, it.t[r]);
-            d.vl[r] = mu / s - it.vl[r] - it.vl[r] / s * d.t[r];
-        }
-        if setup.rows.upper[r].is_finite() {
-            let s = setup.rows.slack_upper(r, it.t[r]);
-            d.vu[r] = mu / s - it.vu[r] + it.vu[r] / s * d.t[r];
-        }
+        (d.vl[r], d.vu[r]) =
+            setup
+                .rows
+                .multiplier_step(r, it.t[r], d.t[r], (it.vl[r], it.vu[r]), mu);
     }
     for i in 0..n {
-        d.zl[i] = 0.0;
-        d.zu[i] = 0.0;
-        if setup.vars.lower[i].is_finite() {
-            let s = setup.vars.slack_lower(i, it.w[i]);
-            d.zl[i] = mu / s - it.zl[i] - it.zl[i] / s * d.w[i];
-        }
-        if setup.vars.upper[i].is_finite() {
-            let s = setup.vars.slack_upper(i, it.w[i]);
-            d.zu[i] = mu / s - it.zu[i] + it.zu[i] / s * d.w[i];
-        }
+        (d.zl[i], d.zu[i]) =
+            setup
+                .vars
+                .multiplier_step(i, it.w[i], d.w[i], (it.zl[i], it.zu[i]), mu);
     }
 }
 
@@ -1268,30 +1297,17 @@ fn barrier_slope(setup: &Setup, gradient: &[f64], it: &Iterate, d: &Direction, m
     slope
 }
 
-/// IPOPT's safeguard: every bound multiplier within `[μ/(κ s), κ μ/s]`, `κ = 1e10`.
+/// IPOPT's safeguard on every bound multiplier ([`Sides::safeguard`]).
 fn safeguard_multipliers(setup: &Setup, it: &mut Iterate, mu: f64) {
-    const KAPPA: f64 = 1e10;
-    let clamp = |z: &mut f64, s: f64| {
-        *z = z.max(mu / (KAPPA * s)).min(KAPPA * mu / s);
-    };
     for i in 0..setup.n {
-        if setup.vars.lower[i].is_finite() {
-            clamp(&mut it.zl[i], setup.vars.slack_lower(i, it.w[i]));
-        }
-        if setup.vars.upper[i].is_finite() {
-            clamp(&mut it.zu[i], setup.vars.slack_upper(i, it.w[i]));
-        }
+        setup
+            .vars
+            .safeguard(i, it.w[i], &mut it.zl[i], &mut it.zu[i], mu);
     }
-    for r in 0..setup.m {
-        if setup.is_dynamics[r] {
-            continue;
-        }
-        if setup.rows.lower[r].is_finite() {
-            clamp(&mut it.vl[r], setup.rows.slack_lower(r, it.t[r]));
-        }
-        if setup.rows.upper[r].is_finite() {
-            clamp(&mut it.vu[r], setup.rows.slack_upper(r, it.t[r]));
-        }
+    for r in (0..setup.m).filter(|&r| !setup.is_dynamics[r]) {
+        setup
+            .rows
+            .safeguard(r, it.t[r], &mut it.vl[r], &mut it.vu[r], mu);
     }
 }
 
