@@ -39,10 +39,15 @@ fn random_problem(rng: &mut ChaCha8Rng, nz: &[usize], nv: &[usize], curvature: f
     Riccati::new(stages, terminal)
 }
 
-/// The KKT matrix of the problem with `δ · shift` on the Hessian, over the variables
-/// `[z_0 v_0 z_1 v_1 … z_N]` and the constraints `z_0 = 0` and the dynamics (as
-/// `z_{k+1} − A z_k − B v_k = c_k`), assembled with sprs; and its right-hand side.
-fn assemble(r: &Riccati, delta: f64) -> (DMatrix<f64>, DVector<f64>, Vec<usize>, usize) {
+/// The KKT matrix of the problem with `δ · shift` on the Hessian (and `control_deltas[k] ·
+/// shift` on stage `k`'s controls), over the variables `[z_0 v_0 z_1 v_1 … z_N]` and the
+/// constraints `z_0 = 0` and the dynamics (as `z_{k+1} − A z_k − B v_k = c_k`), assembled
+/// with sprs; and its right-hand side.
+fn assemble(
+    r: &Riccati,
+    delta: f64,
+    control_deltas: &[f64],
+) -> (DMatrix<f64>, DVector<f64>, Vec<usize>, usize) {
     let n = r.horizon();
     let mut offsets = Vec::new();
     let mut at = 0;
@@ -56,21 +61,39 @@ fn assemble(r: &Riccati, delta: f64) -> (DMatrix<f64>, DVector<f64>, Vec<usize>,
     let size = n_vars + n_cons;
     let mut kkt = TriMat::new((size, size));
     let mut rhs = DVector::zeros(size);
-    let hessian = |o: usize, h: &DMatrix<f64>, shift: &DVector<f64>, kkt: &mut TriMat<f64>| {
+    let hessian = |o: usize,
+                   h: &DMatrix<f64>,
+                   shift: &DVector<f64>,
+                   controls: (usize, f64),
+                   kkt: &mut TriMat<f64>| {
         for i in 0..h.nrows() {
             for j in 0..h.ncols() {
-                let v = h[(i, j)] + if i == j { delta * shift[i] } else { 0.0 };
+                let own = if i >= controls.0 { controls.1 } else { 0.0 };
+                let v = h[(i, j)]
+                    + if i == j {
+                        (delta + own) * shift[i]
+                    } else {
+                        0.0
+                    };
                 kkt.add_triplet(o + i, o + j, v);
             }
         }
     };
     for (k, s) in r.stages.iter().enumerate() {
-        hessian(offsets[k], &s.h, &s.shift, &mut kkt);
+        let controls = (s.nz(), control_deltas.get(k).copied().unwrap_or(0.0));
+        hessian(offsets[k], &s.h, &s.shift, controls, &mut kkt);
         for i in 0..s.q.len() {
             rhs[offsets[k] + i] = -s.q[i];
         }
     }
-    hessian(offsets[n], &r.terminal.h, &r.terminal.shift, &mut kkt);
+    let no_controls = (r.terminal.h.nrows(), 0.0);
+    hessian(
+        offsets[n],
+        &r.terminal.h,
+        &r.terminal.shift,
+        no_controls,
+        &mut kkt,
+    );
     for i in 0..r.terminal.q.len() {
         rhs[offsets[n] + i] = -r.terminal.q[i];
     }
@@ -110,10 +133,8 @@ fn check(seed: u64, nz: &[usize], nv: &[usize], curvature: f64, delta: f64) -> b
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut r = random_problem(&mut rng, nz, nv, curvature);
     assert!(r.is_consistent());
-    let (kkt, rhs, offsets, n_vars) = assemble(&r, delta);
-    let eigen = kkt.clone().symmetric_eigen().eigenvalues;
-    let positive = eigen.iter().filter(|&&l| l > 1e-10).count();
-    let negative = eigen.iter().filter(|&&l| l < -1e-10).count();
+    let (kkt, rhs, offsets, n_vars) = assemble(&r, delta, &[]);
+    let (positive, negative) = inertia(&kkt);
     let right_inertia = positive == n_vars && negative == kkt.nrows() - n_vars;
     let factored = r.factor(delta).is_ok();
     assert_eq!(
@@ -127,7 +148,31 @@ fn check(seed: u64, nz: &[usize], nv: &[usize], curvature: f64, delta: f64) -> b
         return false;
     }
     assert!(r.solve());
-    let solution = kkt.lu().solve(&rhs).expect("the KKT matrix is regular");
+    matches_kkt_solve(&r, &kkt, &rhs, &offsets, n_vars);
+    true
+}
+
+/// Positive and negative eigenvalues of a symmetric matrix.
+fn inertia(kkt: &DMatrix<f64>) -> (usize, usize) {
+    let eigen = kkt.clone().symmetric_eigen().eigenvalues;
+    let positive = eigen.iter().filter(|&&l| l > 1e-10).count();
+    let negative = eigen.iter().filter(|&&l| l < -1e-10).count();
+    (positive, negative)
+}
+
+/// The solved recursion's step and multipliers against the assembled system's, to 1e-9.
+fn matches_kkt_solve(
+    r: &Riccati,
+    kkt: &DMatrix<f64>,
+    rhs: &DVector<f64>,
+    offsets: &[usize],
+    n_vars: usize,
+) {
+    let solution = kkt
+        .clone()
+        .lu()
+        .solve(rhs)
+        .expect("the KKT matrix is regular");
     let tolerance = 1e-9 * solution.amax().max(1.0);
     for (k, s) in r.stages.iter().enumerate() {
         for i in 0..s.nz() {
@@ -159,7 +204,6 @@ fn check(seed: u64, nz: &[usize], nv: &[usize], curvature: f64, delta: f64) -> b
         }
         row += s.c.len();
     }
-    true
 }
 
 #[test]
@@ -202,4 +246,62 @@ fn a_shift_restores_the_inertia() {
         // A large enough shift always cures it, and the cured system matches its KKT solve.
         assert!(check(seed, &nz, &nv, -3.0, 50.0));
     }
+}
+
+#[test]
+fn the_stage_wise_correction_is_the_newton_step_of_a_hessian_corrected_only_in_failing_controls() {
+    let (nz, nv) = ([1, 2, 3, 2], [2, 2, 3]);
+    let mut corrected_stages = 0;
+    for seed in 0..40 {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut r = random_problem(&mut rng, &nz, &nv, -1.0);
+        for s in &mut r.stages {
+            // Unequal shifts: the correction must respect the metric it is given.
+            for (i, d) in s.shift.iter_mut().enumerate() {
+                *d = 0.5 + 0.25 * i as f64;
+            }
+        }
+        let uncorrected = r.factor(0.0).is_ok();
+        let count = r
+            .factor_corrected()
+            .expect("a positive shift on every control");
+        assert_eq!(count == 0, uncorrected, "seed {seed}");
+        let deltas = r.corrections().to_vec();
+        assert_eq!(
+            deltas.iter().filter(|&&d| d > 0.0).count(),
+            count,
+            "seed {seed}"
+        );
+        corrected_stages += count;
+        assert!(r.solve());
+        // The assembled KKT matrix with exactly these control shifts (no state, no
+        // terminal shift) has the inertia of a minimum, and its solution is the step.
+        let (kkt, rhs, offsets, n_vars) = assemble(&r, 0.0, &deltas);
+        let (positive, negative) = inertia(&kkt);
+        assert_eq!(
+            (positive, negative),
+            (n_vars, kkt.nrows() - n_vars),
+            "seed {seed}"
+        );
+        matches_kkt_solve(&r, &kkt, &rhs, &offsets, n_vars);
+        // Each correction is near its least: four fifths of it leave that stage's
+        // reduced Hessian, and so the whole KKT matrix, with the wrong inertia.
+        for k in 0..deltas.len() {
+            if deltas[k] == 0.0 {
+                continue;
+            }
+            let mut smaller = deltas.clone();
+            smaller[k] *= 0.8;
+            let (kkt, _, _, n_vars) = assemble(&r, 0.0, &smaller);
+            let (positive, _) = inertia(&kkt);
+            assert!(
+                positive < n_vars,
+                "seed {seed}, stage {k}: δ_k is not near its least"
+            );
+        }
+    }
+    assert!(
+        corrected_stages >= 20,
+        "only {corrected_stages} corrected stages"
+    );
 }

@@ -16,8 +16,9 @@
 //! constraints — exactly when every `R̂_k` is positive definite, so the Cholesky
 //! factorisations are the inertia test: `H_k` and `H_N` may be indefinite (an indefinite
 //! terminal cost is fine) as long as the reduced Hessian is not. A failed factorisation
-//! names the stage, and the caller adds a multiple `δ` of each stage's `shift` diagonal
-//! and factorises again (inertia correction).
+//! names the stage ([`Riccati::factor`], with a uniform shift `δ` the caller chooses), or
+//! the failing stages are corrected one by one on the way ([`Riccati::factor_corrected`]:
+//! inertia correction on the controls of the stages that need it, by what they need).
 //!
 //! [`Riccati::factor`] depends on the matrices only, [`Riccati::solve`] on the vectors
 //! `q_k` and `c_k`: a second right-hand side (a second-order correction, a corrector step)
@@ -124,6 +125,8 @@ pub struct Riccati {
     pub terminal: Terminal,
     factors: Vec<Factor>,
     p_terminal: DMatrix<f64>,
+    /// The `δ_k` of the last factorisation.
+    deltas: Vec<f64>,
     factored: bool,
     /// The step: `z_k`, `k = 0 … N`.
     pub z: Vec<DVector<f64>>,
@@ -153,6 +156,7 @@ impl Riccati {
             })
             .collect();
         let nz_n = terminal.h.nrows();
+        let n_stages = stages.len();
         let z = stages
             .iter()
             .map(|s| DVector::zeros(s.nz()))
@@ -171,6 +175,7 @@ impl Riccati {
             terminal,
             factors,
             p_terminal: DMatrix::zeros(nz_n, nz_n),
+            deltas: vec![0.0; n_stages],
             factored: false,
             z,
             v,
@@ -210,26 +215,43 @@ impl Riccati {
     /// Factorises with `δ · shift` added to every `H_k` and to `H_N`. Fails at the first
     /// stage (going backwards) whose reduced Hessian `R̂_k` is not positive definite.
     pub fn factor(&mut self, delta: f64) -> Result<(), WrongInertia> {
-        self.factor_from(delta, 0)
+        self.factor_stages(delta, false).map(|_| ())
     }
 
-    /// Like [`Riccati::factor`], with `δ · shift` added only to the stages from `first` on
-    /// (and to `H_N`): the stages a failed factorisation named, and those after them,
-    /// where the missing curvature comes from.
-    pub fn factor_from(&mut self, delta: f64, first: usize) -> Result<(), WrongInertia> {
+    /// Factorises with the least correction stage by stage: where a reduced Hessian `R̂_k`
+    /// is not positive definite, `δ_k` times the shift of stage `k`'s controls is added to
+    /// it, `δ_k` just above the magnitude of `R̂_k`'s most negative eigenvalue in the
+    /// shift's metric, and nothing is added to any state or to any other stage. Adding to
+    /// `R̂_k` is adding to `H_k`'s control block (`R̂_k` is linear in it), so the step is
+    /// the Newton step of a Hessian corrected only where its inertia was wrong, and only
+    /// in the stage's own controls: a flat direction elsewhere (a state the terminal cost
+    /// barely curves) keeps its exact curvature instead of a shift sized for the worst
+    /// stage. Returns how many stages were corrected; [`Riccati::corrections`] has the
+    /// `δ_k`. Fails only where a control has no shift or the numbers are not finite.
+    pub fn factor_corrected(&mut self) -> Result<usize, WrongInertia> {
+        self.factor_stages(0.0, true)
+    }
+
+    /// The `δ_k` of the last factorisation, per stage (the uniform `δ` of
+    /// [`Riccati::factor`] on every stage).
+    pub fn corrections(&self) -> &[f64] {
+        &self.deltas
+    }
+
+    fn factor_stages(&mut self, delta: f64, correct: bool) -> Result<usize, WrongInertia> {
         self.factored = false;
         let t = &self.terminal;
         self.p_terminal.copy_from(&t.h);
         for i in 0..t.shift.len() {
             self.p_terminal[(i, i)] += delta * t.shift[i];
         }
+        let mut corrected = 0;
         for k in (0..self.stages.len()).rev() {
             let (done, rest) = self.factors.split_at_mut(k + 1);
             let next_p = rest.first().map_or(&self.p_terminal, |f| &f.p);
             let f = &mut done[k];
             let s = &self.stages[k];
             let (nz, nv) = (s.nz(), s.nv());
-            let delta = if k >= first { delta } else { 0.0 };
             // PA, PB with the next stage's P.
             next_p.mul_to(&s.a, &mut f.pa);
             next_p.mul_to(&s.b, &mut f.pb);
@@ -245,16 +267,29 @@ impl Riccati {
             for i in 0..nv {
                 r_hat[(i, i)] += delta * s.shift[nz + i];
             }
-            let Some(chol) = Cholesky::new(r_hat) else {
-                return Err(WrongInertia { stage: k });
+            self.deltas[k] = delta;
+            let chol = match positive_definite(r_hat.clone()) {
+                Some(chol) => chol,
+                None if correct => {
+                    let shift = s.shift.rows(nz, nv);
+                    let least = least_correction(&r_hat, shift.as_slice())
+                        .ok_or(WrongInertia { stage: k })?;
+                    // Rounding may leave the first try short: quadrupled until it holds
+                    // (twenty times at most).
+                    let held = (0..20).map(|i| least * 4f64.powi(i)).find_map(|delta_k| {
+                        let mut shifted = r_hat.clone();
+                        for i in 0..nv {
+                            shifted[(i, i)] += delta_k * shift[i];
+                        }
+                        positive_definite(shifted).map(|chol| (delta_k, chol))
+                    });
+                    let (delta_k, chol) = held.ok_or(WrongInertia { stage: k })?;
+                    self.deltas[k] = delta_k;
+                    corrected += 1;
+                    chol
+                }
+                None => return Err(WrongInertia { stage: k }),
             };
-            // A pivot far below the matrix's scale is an indefinite direction lost in
-            // rounding: treated as the wrong inertia, like fatrop's 1e-8 pivot test.
-            let l = chol.l_dirty();
-            let scale = (0..nv).fold(0.0_f64, |a, i| a.max(l[(i, i)] * l[(i, i)]));
-            if (0..nv).any(|i| l[(i, i)] * l[(i, i)] <= 1e-14 * scale.max(1e-300)) {
-                return Err(WrongInertia { stage: k });
-            }
             f.gain.copy_from(&s_hat);
             chol.solve_mut(&mut f.gain);
             f.gain.neg_mut();
@@ -271,7 +306,7 @@ impl Riccati {
             f.chol = Some(chol);
         }
         self.factored = true;
-        Ok(())
+        Ok(corrected)
     }
 
     /// Solves for the current `q_k`, `c_k` with the last factorisation: fills `z`, `v`
@@ -327,6 +362,39 @@ impl Riccati {
         }
         true
     }
+}
+
+/// The Cholesky factor of a positive definite matrix, `None` for any other. A pivot far
+/// below the matrix's scale is an indefinite direction lost in rounding: treated as not
+/// positive definite, like fatrop's 1e-8 pivot test.
+fn positive_definite(m: DMatrix<f64>) -> Option<Cholesky<f64, Dyn>> {
+    let n = m.nrows();
+    let chol = Cholesky::new(m)?;
+    let l = chol.l_dirty();
+    let scale = (0..n).fold(0.0_f64, |a, i| a.max(l[(i, i)] * l[(i, i)]));
+    if (0..n).any(|i| l[(i, i)] * l[(i, i)] <= 1e-14 * scale.max(1e-300)) {
+        return None;
+    }
+    Some(chol)
+}
+
+/// The `δ` that lifts `R̂ + δ · diag(shift)` just above positive definiteness: the most
+/// negative eigenvalue `λ` of `D^{-1/2} R̂ D^{-1/2}` (`D = diag(shift)`) becomes
+/// `MARGIN · |λ|` (or a small fraction of the largest eigenvalue where `λ` is near zero).
+/// `None` where a shift is not positive or an entry is not finite.
+fn least_correction(r_hat: &DMatrix<f64>, shift: &[f64]) -> Option<f64> {
+    const MARGIN: f64 = 0.2;
+    if shift.iter().any(|&d| !(d > 0.0 && d.is_finite())) || !r_hat.iter().all(|v| v.is_finite()) {
+        return None;
+    }
+    let n = r_hat.nrows();
+    let scaled = DMatrix::from_fn(n, n, |i, j| r_hat[(i, j)] / (shift[i] * shift[j]).sqrt());
+    let eigenvalues = scaled.symmetric_eigenvalues();
+    let lowest = eigenvalues.min();
+    let margin = (MARGIN * lowest.abs())
+        .max(1e-12 * eigenvalues.amax())
+        .max(f64::MIN_POSITIVE);
+    Some((margin - lowest).max(margin))
 }
 
 #[cfg(test)]

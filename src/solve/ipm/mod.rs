@@ -8,20 +8,22 @@
 //!   diagonal `Σ` terms and `Jᵀ Σ J` over the inequality rows, and the dynamics.
 //! * Newton step: a Riccati recursion over the stages ([`super::riccati`],
 //!   [`crate::nlp::Stages`]), `O(N)`; its Cholesky factorisations are the inertia test.
-//!   When the reduced Hessian is not positive definite, `δ / D²` (`D` a variable's range)
-//!   is added to the diagonal of the stage that failed and the stages after it (the
-//!   curvature a terminal cost lacks is not made up on the first stages), with IPOPT's
-//!   schedule (1e-4 the first time, a third of the last value after that, ×100 or ×8 per
-//!   failure), then narrowed by bisection towards the threshold. No convexification: where the
-//!   reduced Hessian is positive definite the exact Newton step is taken, and the
-//!   convergence is quadratic.
+//!   Inertia correction stage by stage ([`Riccati::factor_corrected`]): where a stage's
+//!   reduced Hessian `R̂_k` is not positive definite, `δ_k / D²` (`D` a control's range)
+//!   is added to that stage's controls only, `δ_k` just above what `R̂_k`'s most negative
+//!   eigenvalue needs. One `δ` for the whole horizon (IPOPT's and fatrop's correction) is
+//!   sized for the worst stage and damps every other direction with it: a value network's
+//!   terminal cost needed `δ ≈ 3` on the last stages while the terminal temperature's own
+//!   curvature was 3e-4, and the step crept towards the terminal region's bound for
+//!   hundreds of iterations. No convexification: where the reduced Hessian is positive
+//!   definite the exact Newton step is taken, and the convergence is quadratic.
 //! * Globalisation: IPOPT's filter line search on the barrier objective and the ℓ₁
 //!   constraint violation, fraction to the boundary `τ = max(0.99, 1 − μ)`, up to four
 //!   second-order corrections, and a feasibility restoration by the problem's own
 //!   [`Nlp::restore_feasibility`] (an optimal-control problem re-simulates its states)
 //!   when the step gets too short.
 //! * Barrier parameter: IPOPT's monotone rule (`μ ← max(ε/10, min(μ/5, μ^1.5))` once the
-//!   barrier problem is solved to `10 μ`); a cold start begins at `μ = 0.1`, a warm start
+//!   barrier problem is solved to `10 μ`); a cold start begins at [`IpmOptions::initial_mu`], a warm start
 //!   (multipliers given) at [`IpmOptions::warm_start_mu`], with the point pushed that far
 //!   inside its bounds and the bound multipliers raised to match.
 //!
@@ -96,8 +98,6 @@ pub struct Ipm {
     /// the same (an `Ocp` keeps its sizes but changes its Hessian pattern when a terminal
     /// cost comes or goes).
     layout: Option<Layout>,
-    /// The last inertia correction `δ` (0 when none was needed).
-    last_delta: f64,
     /// Inertia corrections made by the last solve.
     corrections: usize,
 }
@@ -379,7 +379,6 @@ impl Ipm {
             options,
             iteration_limit: None,
             layout: None,
-            last_delta: 0.0,
             corrections: 0,
         }
     }
@@ -388,56 +387,6 @@ impl Ipm {
     /// solve.
     pub fn inertia_corrections(&self) -> usize {
         self.corrections
-    }
-
-    /// Factorises with the smallest `δ` of IPOPT's schedule that gives the right inertia,
-    /// then narrows it down towards the threshold by bisection (in `log δ`, between the
-    /// last failure and the first success): a `δ` far above the threshold damps the step
-    /// along a direction of negative curvature to a crawl, one just above it lets the
-    /// step run to the bound that ends that direction, where the barrier's curvature
-    /// takes over.
-    fn factor(riccati: &mut Riccati, last_delta: &mut f64) -> Option<f64> {
-        let mut first = match riccati.factor(0.0) {
-            Ok(()) => return Some(0.0),
-            Err(e) => e.stage,
-        };
-        let mut delta = if *last_delta == 0.0 {
-            1e-4
-        } else {
-            (*last_delta / 3.0).max(1e-20)
-        };
-        let growth = if *last_delta == 0.0 { 100.0 } else { 8.0 };
-        let mut failed = delta / growth;
-        loop {
-            match riccati.factor_from(delta, first) {
-                Ok(()) => break,
-                // The missing curvature shows up earlier: shift from there on, same δ.
-                Err(e) if e.stage < first => first = e.stage,
-                Err(_) => {
-                    failed = delta;
-                    delta *= growth;
-                    if delta > 1e20 {
-                        return None;
-                    }
-                }
-            }
-        }
-        let mut current = true;
-        for _ in 0..4 {
-            let middle = (failed * delta).sqrt();
-            current = riccati.factor_from(middle, first).is_ok();
-            if current {
-                delta = middle;
-            } else {
-                failed = middle;
-            }
-        }
-        // The last try failed: the factorisation held is not `δ`'s.
-        if !current && riccati.factor_from(delta, first).is_err() {
-            return None;
-        }
-        *last_delta = delta;
-        Some(delta)
     }
 }
 
@@ -603,7 +552,6 @@ impl Ipm {
             bounds,
         };
         self.corrections = 0;
-        self.last_delta = 0.0;
         let warm = start.multipliers.is_some() && start.bound_multipliers.is_some();
         let mut mu = if warm {
             opts.warm_start_mu
@@ -799,7 +747,7 @@ impl Ipm {
                 dyn_residual[r] = ev.c[r] - setup.target[r];
             }
             map.fill_vectors(riccati, &condensed, &dyn_residual);
-            let Some(delta) = Self::factor(riccati, &mut self.last_delta) else {
+            let Ok(corrected) = riccati.factor_corrected() else {
                 return self.finish(
                     nlp,
                     &setup,
@@ -810,7 +758,9 @@ impl Ipm {
                     clock,
                 );
             };
-            if delta > 0.0 {
+            // The largest stage correction, for the trace.
+            let delta = riccati.corrections().iter().fold(0.0_f64, |a, &d| a.max(d));
+            if corrected > 0 {
                 self.corrections += 1;
             }
             if !riccati.solve() {
