@@ -365,14 +365,17 @@ impl Riccati {
 }
 
 /// The Cholesky factor of a positive definite matrix, `None` for any other. A pivot far
-/// below the matrix's scale is an indefinite direction lost in rounding: treated as not
-/// positive definite, like fatrop's 1e-8 pivot test.
+/// below its own row's diagonal is a direction lost in rounding (the row nearly a
+/// combination of the ones before it): treated as not positive definite, like fatrop's
+/// pivot test, but relative to each row, so that the test does not depend on the units
+/// of the variables (a diagonal scaling of the matrix scales each pivot and its diagonal
+/// alike).
 fn positive_definite(m: DMatrix<f64>) -> Option<Cholesky<f64, Dyn>> {
     let n = m.nrows();
+    let diagonal: Vec<f64> = (0..n).map(|i| m[(i, i)]).collect();
     let chol = Cholesky::new(m)?;
     let l = chol.l_dirty();
-    let scale = (0..n).fold(0.0_f64, |a, i| a.max(l[(i, i)] * l[(i, i)]));
-    if (0..n).any(|i| l[(i, i)] * l[(i, i)] <= 1e-14 * scale.max(1e-300)) {
+    if (0..n).any(|i| l[(i, i)] * l[(i, i)] <= 1e-14 * diagonal[i]) {
         return None;
     }
     Some(chol)
@@ -438,5 +441,17 @@ mod tests {
         // With P = 1 + δ and R = −3 + δ: R̂ = −2 + 2δ > 0 from δ > 1.
         assert!(r.factor(0.9).is_err());
         assert!(r.factor(1.1).is_ok());
+    }
+
+    /// The pivot test does not depend on units: a well-conditioned positive definite
+    /// matrix in badly mixed units (a diagonal scaling of 1e-6 … 1e6) is positive definite,
+    /// a singular one in good units is not.
+    #[test]
+    fn the_pivot_test_is_independent_of_units() {
+        let m = DMatrix::from_row_slice(3, 3, &[2.0, 1.0, 0.0, 1.0, 2.0, 1.0, 0.0, 1.0, 2.0]);
+        let d = DMatrix::from_diagonal(&DVector::from_vec(vec![1e-6, 1.0, 1e6]));
+        assert!(positive_definite(&d * &m * &d).is_some());
+        let singular = DMatrix::from_row_slice(2, 2, &[1.0, 1.0, 1.0, 1.0 + 1e-17]);
+        assert!(positive_definite(singular).is_none());
     }
 }
