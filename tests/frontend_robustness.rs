@@ -145,9 +145,7 @@ const TANK: &str = "model tank\nsample 1 [s]\nstate x = 1\nder x = -y\n";
 #[test]
 fn a_byte_order_mark_is_accepted() {
     loads(&format!("\u{FEFF}{}", TANK.replace("-y", "-x")));
-    let f = fails(&format!(
-        "\u{FEFF}sample 1 [s] integrator rk5\nstate x = 1\nder x = -x\n"
-    ));
+    let f = fails("\u{FEFF}sample 1 [s] integrator rk5\nstate x = 1\nder x = -x\n");
     let (code, at, _) = only_error(&f);
     assert_eq!((code, at.as_str()), ("E017", "bad.ghm:1:25"));
 }
