@@ -1,10 +1,15 @@
 //! The `.ghm` language front end.
 pub mod ast;
-pub mod check;
+pub mod chars;
+mod check;
+mod collect;
 pub mod diagnostic;
+mod limits;
+pub mod load;
 pub mod model;
 pub mod parse;
 pub mod source;
+pub mod text;
 
-pub use check::{load, load_str, CheckFailure};
+pub use load::{load, load_str, CheckFailure};
 pub use model::Model;

@@ -6,7 +6,9 @@
 //! The parser never panics, whatever the input.
 
 use crate::lang::ast::*;
+use crate::lang::chars::unexpected;
 use crate::lang::diagnostic::Diagnostic;
+use crate::lang::limits::too_complex;
 use crate::lang::source::Span;
 use pest::iterators::Pair;
 use pest::Parser;
@@ -66,54 +68,6 @@ pub fn parse(file: usize, text: &str) -> (Vec<Statement>, Vec<Diagnostic>) {
     (statements, diagnostics)
 }
 
-/// Deepest bracket nesting and most operators one statement may have: far beyond any
-/// model, and low enough that parsing and checking (both recursive) cannot overflow.
-const MAX_NESTING: usize = 64;
-const MAX_OPERATORS: usize = 1000;
-
-/// Rejects a statement too deeply nested or too long to check safely.
-fn too_complex(file: usize, start: usize, chunk: &str) -> Option<Diagnostic> {
-    let (mut depth, mut deepest, mut deepest_at, mut operators) = (0usize, 0usize, 0usize, 0usize);
-    for (i, c) in chunk.char_indices() {
-        match c {
-            '(' | '[' => {
-                depth += 1;
-                if depth > deepest {
-                    deepest = depth;
-                    deepest_at = i;
-                }
-            }
-            ')' | ']' => depth = depth.saturating_sub(1),
-            '+' | '-' | '*' | '/' | '^' | '<' | '>' | ',' => operators += 1,
-            _ => {}
-        }
-    }
-    let span = |at: usize| Span::new(file, start + at, start + at + 1);
-    if deepest > MAX_NESTING {
-        return Some(
-            Diagnostic::error(
-                "E023",
-                span(deepest_at),
-                format!("brackets nested {deepest} deep (at most {MAX_NESTING})"),
-            )
-            .label("too deep")
-            .help("split the expression into named parts with `let`"),
-        );
-    }
-    if operators > MAX_OPERATORS {
-        return Some(
-            Diagnostic::error(
-                "E023",
-                span(0),
-                format!("statement has {operators} operators (at most {MAX_OPERATORS})"),
-            )
-            .label("statement too long")
-            .help("split the expression into named parts with `let`"),
-        );
-    }
-    None
-}
-
 /// Splits the text into `(byte offset, statement text)` pieces. Text before the first
 /// keyword line (other than comments and blank lines) becomes a piece of its own so that
 /// it is reported, not dropped.
@@ -165,6 +119,16 @@ fn syntax_error(file: usize, start: usize, chunk: &str, e: pest::error::Error<Ru
         pest::error::ErrorVariant::ParsingError { positives, .. } => describe_expected(positives),
         pest::error::ErrorVariant::CustomError { message } => message.clone(),
     };
+    let span = Span::new(file, at, end);
+    if let Some(odd) = chunk[pos..].chars().next().and_then(unexpected) {
+        return Diagnostic::error(
+            "E001",
+            span,
+            format!("syntax error: unexpected {}", odd.what),
+        )
+        .label(format!("expected {expected}"))
+        .help(odd.help);
+    }
     let found_text = if found.is_empty() {
         "the end of the statement".to_string()
     } else {
@@ -172,7 +136,7 @@ fn syntax_error(file: usize, start: usize, chunk: &str, e: pest::error::Error<Ru
     };
     Diagnostic::error(
         "E001",
-        Span::new(file, at, end),
+        span,
         format!("syntax error: unexpected {found_text}"),
     )
     .label(format!("expected {expected}"))

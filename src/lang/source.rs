@@ -1,5 +1,6 @@
 //! Source files and byte spans, and the mapping from a byte offset to `line:column`.
 
+use crate::lang::text::normalize;
 use std::path::{Path, PathBuf};
 
 /// A half-open byte range `[start, end)` in one source file.
@@ -37,14 +38,21 @@ pub struct SourceFile {
     pub path: PathBuf,
     /// The path as the user should see it in messages.
     pub display: String,
-    /// The whole file, as read.
+    /// The whole file as read, without a byte-order mark and with `\n` line endings
+    /// (see [`normalize`]).
     pub text: String,
     line_starts: Vec<usize>,
 }
 
 impl SourceFile {
-    /// A file read from `path` with contents `text`, its lines indexed.
+    /// A file read from `path` with contents `text` (normalised: no byte-order mark,
+    /// `\n` line endings), its lines indexed.
     pub fn new(path: &Path, text: String) -> SourceFile {
+        let text = if text.starts_with('\u{FEFF}') || text.contains('\r') {
+            normalize(&text)
+        } else {
+            text
+        };
         let line_starts = std::iter::once(0)
             .chain(text.match_indices('\n').map(|(i, _)| i + 1))
             .collect();

@@ -1,0 +1,355 @@
+//! Checks of constant settings: input bounds, rate limits and start values, soft and
+//! planning bands, the `sample` statement and the `uncertainty` settings.
+
+use super::{info, Checker, Symbol};
+use crate::lang::ast::*;
+use crate::lang::diagnostic::Diagnostic;
+use crate::lang::model::*;
+use crate::lang::source::Span;
+
+/// Shortest sample period accepted, in seconds.
+const MIN_PERIOD_S: f64 = 0.1;
+/// Longest sample period accepted, in seconds: one day.
+const MAX_PERIOD_S: f64 = 86_400.0;
+
+/// A number as a person writes it: `1e-300`, not three hundred zeros.
+fn readable(v: f64) -> String {
+    if v == 0.0 || (1e-3..1e7).contains(&v.abs()) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
+impl Checker<'_> {
+    pub(super) fn input(&mut self, s: &Statement) -> Option<InputDecl> {
+        let Stmt::Input {
+            name,
+            bounds,
+            rate,
+            start,
+            doc,
+        } = &s.stmt
+        else {
+            return None;
+        };
+        let (lower, upper) = match bounds {
+            Some((lo, hi)) => {
+                let l = self.constant(lo, "a bound").unwrap_or(f64::NAN);
+                let h = self.constant(hi, "a bound").unwrap_or(f64::NAN);
+                if l > h {
+                    self.diags.push(
+                        Diagnostic::error(
+                            "E008",
+                            lo.span().to(hi.span()),
+                            format!(
+                                "input `{}` has bounds with lower {l} > upper {h}",
+                                name.text
+                            ),
+                        )
+                        .label("empty interval")
+                        .help("write the bounds as `in [lower, upper]`"),
+                    );
+                }
+                (l, h)
+            }
+            None => (f64::NEG_INFINITY, f64::INFINITY),
+        };
+        let rate_v = match rate {
+            Some(r) => {
+                let v = self.constant(r, "a rate limit").unwrap_or(f64::NAN);
+                if v < 0.0 {
+                    self.diags.push(
+                        Diagnostic::error("E007", r.span(), format!("rate limit of `{}` is negative ({v})", name.text))
+                            .label("must be ≥ 0")
+                            .help("the rate limit is the largest |u(k) − u(k−1)|; give a non-negative number"),
+                    );
+                }
+                Some(v)
+            }
+            None => None,
+        };
+        let start_v = match start {
+            Some(e) => {
+                let v = self.constant(e, "a start value").unwrap_or(f64::NAN);
+                if v < lower || v > upper {
+                    self.diags.push(
+                        Diagnostic::error("E021", e.span(), format!("start value {v} of `{}` lies outside its bounds [{lower}, {upper}]", name.text))
+                            .label("outside the bounds")
+                            .help("the start value is the input applied before the first step; put it within the bounds"),
+                    );
+                }
+                v
+            }
+            None => lower.max(0.0).min(upper),
+        };
+        Some(InputDecl {
+            info: info(name, doc),
+            lower,
+            upper,
+            rate: rate_v,
+            start: if start_v.is_finite() { start_v } else { 0.0 },
+        })
+    }
+
+    pub(super) fn soft(&mut self, s: &Statement) -> Option<SoftBand> {
+        let Stmt::Soft {
+            output,
+            band,
+            weight_lo,
+            weight_hi,
+            plan,
+            description,
+        } = &s.stmt
+        else {
+            return None;
+        };
+        let index = match self.symbols.get(&output.text) {
+            Some((Symbol::Output(i), _)) => *i,
+            Some(_) => {
+                self.diags.push(
+                    Diagnostic::error(
+                        "E018",
+                        output.span,
+                        format!(
+                            "soft bands apply to outputs; `{}` is not an output",
+                            output.text
+                        ),
+                    )
+                    .label("not an output")
+                    .help(format!(
+                        "declare `output {0} = ...` (an output may simply equal a state)",
+                        output.text
+                    )),
+                );
+                return None;
+            }
+            None => {
+                self.unknown(output);
+                return None;
+            }
+        };
+        self.used.insert(output.text.clone());
+        let (lo, hi) = self.band(band);
+        if lo > hi {
+            self.diags.push(
+                Diagnostic::error(
+                    "E008",
+                    band.span,
+                    format!("soft band on `{}` has lower {lo} > upper {hi}", output.text),
+                )
+                .label("empty band")
+                .help("write the band as `in [lower, upper]`"),
+            );
+        }
+        let wl = self.constant(weight_lo, "a weight").unwrap_or(f64::NAN);
+        let wh = match weight_hi {
+            Some(w) => self.constant(w, "a weight").unwrap_or(f64::NAN),
+            None => wl,
+        };
+        // One weight for both sides is checked once.
+        let weights = match weight_hi {
+            Some(w_hi) => vec![(wl, weight_lo), (wh, w_hi)],
+            None => vec![(wl, weight_lo)],
+        };
+        for (w, e) in weights {
+            if w < 0.0 {
+                self.diags.push(
+                    Diagnostic::error("E007", e.span(), format!("penalty weight {w} is negative"))
+                        .label("must be ≥ 0")
+                        .help(
+                            "a soft band penalises leaving it; its weights are non-negative prices",
+                        ),
+                );
+            }
+        }
+        let (plo, phi) = match plan {
+            Some(p) => {
+                let (a, b) = self.band(p);
+                let (plo, phi) = (a.max(lo), b.min(hi));
+                if plo > phi {
+                    self.diags.push(
+                        Diagnostic::error(
+                            "E008",
+                            p.lo.as_ref().or(p.hi.as_ref()).map_or(p.span, |e| e.span()),
+                            format!(
+                                "planning band on `{}` is empty inside [{lo}, {hi}]",
+                                output.text
+                            ),
+                        )
+                        .label("empty planning band")
+                        .help("a planning band is a tighter band inside the soft band"),
+                    );
+                }
+                (plo, phi)
+            }
+            None => (lo, hi),
+        };
+        Some(SoftBand {
+            output: index,
+            lower: lo,
+            upper: hi,
+            weight_below: wl,
+            weight_above: wh,
+            plan_lower: plo,
+            plan_upper: phi,
+            description: description.clone().unwrap_or_default(),
+        })
+    }
+
+    fn band(&mut self, b: &Band) -> (f64, f64) {
+        let lo = b.lo.as_ref().map_or(f64::NEG_INFINITY, |e| {
+            self.constant(e, "a band limit").unwrap_or(f64::NAN)
+        });
+        let hi = b.hi.as_ref().map_or(f64::INFINITY, |e| {
+            self.constant(e, "a band limit").unwrap_or(f64::NAN)
+        });
+        (lo, hi)
+    }
+
+    pub(super) fn sample(&mut self, s: Option<&Statement>) -> (f64, Integrator, usize) {
+        let Some(Statement {
+            stmt:
+                Stmt::Sample {
+                    period,
+                    unit,
+                    integrator,
+                    substeps,
+                    span,
+                },
+            ..
+        }) = s
+        else {
+            self.diags.push(
+                Diagnostic::error("E012", Span::default(), "the model has no `sample` statement")
+                    .label("")
+                    .help("add e.g. `sample 1800 [s] integrator rk4 substeps 4` to set the control period"),
+            );
+            return (f64::NAN, Integrator::Rk4, 1);
+        };
+        let mut p = self
+            .constant(period, "the sample period")
+            .unwrap_or(f64::NAN);
+        let factor = match unit.as_deref().map(str::trim) {
+            None | Some("s") => 1.0,
+            Some("min") => 60.0,
+            Some("h") => 3600.0,
+            Some(other) => {
+                self.diags.push(
+                    Diagnostic::error("E017", *span, format!("unknown time unit `[{other}]`"))
+                        .label("here")
+                        .help("use [s], [min] or [h]"),
+                );
+                1.0
+            }
+        };
+        p *= factor;
+        if p.is_nan() || p <= 0.0 {
+            self.diags.push(
+                Diagnostic::error("E017", period.span(), "the sample period must be positive")
+                    .label("here")
+                    .help("give the control period in seconds, e.g. `sample 1800 [s]`"),
+            );
+        } else if !(MIN_PERIOD_S..=MAX_PERIOD_S).contains(&p) {
+            // A season is sized in steps of this period: outside the range it would have
+            // billions of steps or none.
+            self.diags.push(
+                Diagnostic::error(
+                    "E017",
+                    period.span(),
+                    format!(
+                        "the sample period is {} s; it must be from {MIN_PERIOD_S} s to \
+                         {MAX_PERIOD_S} s (one day)",
+                        readable(p)
+                    ),
+                )
+                .label("out of range")
+                .help(
+                    "give the control period in seconds, minutes or hours, e.g. `sample 30 [min]`",
+                ),
+            );
+        }
+        let integ = match integrator.as_ref().map(|n| (n.text.as_str(), n.span)) {
+            None | Some(("rk4", _)) => Integrator::Rk4,
+            Some(("euler", _)) => Integrator::Euler,
+            Some((other, sp)) => {
+                self.diags.push(
+                    Diagnostic::error("E017", sp, format!("unknown integrator `{other}`"))
+                        .label("unknown")
+                        .help("use `rk4` or `euler`"),
+                );
+                Integrator::Rk4
+            }
+        };
+        let n = match substeps {
+            Some(e) => {
+                let v = self
+                    .constant(e, "the number of sub-steps")
+                    .unwrap_or(f64::NAN);
+                if !(v >= 1.0 && v.fract() == 0.0 && v <= 1000.0) {
+                    self.diags.push(
+                        Diagnostic::error(
+                            "E017",
+                            e.span(),
+                            format!("sub-steps must be a whole number from 1 to 1000, not {v}"),
+                        )
+                        .label("here")
+                        .help("e.g. `substeps 4`"),
+                    );
+                    1
+                } else {
+                    v as usize
+                }
+            }
+            None => 1,
+        };
+        (p, integ, n)
+    }
+
+    pub(super) fn uncertainty(&mut self, s: Option<&Statement>) -> Uncertainty {
+        let mut u = Uncertainty::default();
+        let Some(Statement {
+            stmt: Stmt::Uncertainty { settings, .. },
+            ..
+        }) = s
+        else {
+            return u;
+        };
+        for (k, v) in settings {
+            let ok = match (k.text.as_str(), v.text.as_str()) {
+                ("redraw", "season") => {
+                    u.redraw = Redraw::Season;
+                    true
+                }
+                ("redraw", "step") => {
+                    u.redraw = Redraw::Step;
+                    true
+                }
+                ("params", "all") => {
+                    u.all_params = true;
+                    true
+                }
+                ("params", "marked") => {
+                    u.all_params = false;
+                    true
+                }
+                ("spread", num) => match num.parse::<f64>() {
+                    Ok(x) if x > 0.0 && x.is_finite() => {
+                        u.spread = x;
+                        true
+                    }
+                    _ => false,
+                },
+                _ => false,
+            };
+            if !ok {
+                self.diags.push(
+                    Diagnostic::error("E016", k.span.to(v.span), format!("unknown uncertainty setting `{} = {}`", k.text, v.text))
+                        .label("not understood")
+                        .help("settings are `redraw = season|step`, `spread = <positive number>`, `params = marked|all`"),
+                );
+            }
+        }
+        u
+    }
+}

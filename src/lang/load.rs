@@ -1,0 +1,231 @@
+//! Loading a model: reading the main file and, in place of each `import`, the files it
+//! imports; the entry points [`load`] and [`load_str`], and the [`CheckFailure`] they give
+//! for a model with errors.
+
+use crate::lang::ast::*;
+use crate::lang::check::check;
+use crate::lang::diagnostic::Diagnostic;
+use crate::lang::model::Model;
+use crate::lang::parse::parse;
+use crate::lang::source::{SourceFile, SourceMap, Span};
+use crate::lang::text::{decode, Decoded};
+use std::path::{Path, PathBuf};
+
+/// Why a model could not be loaded: the diagnostics (errors and warnings) and the sources
+/// they point into.
+///
+/// # Examples
+///
+/// A misspelt name is an error with a code, a `file:line:column`, the source line with a
+/// caret under the name, and a hint:
+///
+/// ```
+/// use ghm::lang::diagnostic::Severity;
+///
+/// let text = "\
+/// sample 30 [min]
+/// state temp_air [°C] = 15
+/// input heating [W m^-2] in [0, 150]
+/// der temp_air = (heatng - 6.1 * temp_air) / 3e4
+/// ";
+/// let failure = ghm::lang::load_str("bad.ghm", text).unwrap_err();
+/// assert_eq!(failure.error_count(), 1);
+/// let error = &failure.diagnostics[0];
+/// assert_eq!((error.severity, error.code), (Severity::Error, "E003"));
+/// assert_eq!(failure.sources.location(error.span), "bad.ghm:4:17");
+///
+/// let message = failure.render();
+/// assert!(message.starts_with("error[E003]: unknown name `heatng`"));
+/// assert!(message.contains("┌─ bad.ghm:4:17"));
+/// assert!(message.contains("help: did you mean `heating`?"));
+/// // The unused input is reported too, as a warning.
+/// assert!(message.contains("warning[W001]: input `heating` is never used"));
+/// // As an error (`?` into `Box<dyn Error>`), it shows the same text, Debug included.
+/// assert_eq!(failure.to_string(), message.trim_end());
+/// assert_eq!(format!("{failure:?}"), failure.to_string());
+/// ```
+#[derive(Clone)]
+pub struct CheckFailure {
+    /// The files read (the main file and its imports), which the spans point into.
+    pub sources: SourceMap,
+    /// Every error and warning found: those of parsing and imports first, then those of
+    /// checking.
+    pub diagnostics: Vec<Diagnostic>,
+}
+
+/// Displays as [`CheckFailure::render`], so that `?` carries the full message into any
+/// `Box<dyn Error>`.
+impl std::fmt::Display for CheckFailure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.render().trim_end())
+    }
+}
+
+/// Debug shows the rendered diagnostics too: `main` returning `Result<(), Box<dyn Error>>`
+/// prints an error with `{:?}`, and a user should see `file:line:column`, not the fields.
+impl std::fmt::Debug for CheckFailure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        std::fmt::Display::fmt(self, f)
+    }
+}
+
+impl std::error::Error for CheckFailure {}
+
+impl CheckFailure {
+    /// The diagnostics rendered as text with `file:line:col`, source lines and carets.
+    pub fn render(&self) -> String {
+        crate::lang::diagnostic::render(&self.sources, &self.diagnostics)
+    }
+
+    /// The number of errors (warnings are not counted).
+    pub fn error_count(&self) -> usize {
+        self.diagnostics.iter().filter(|d| d.is_error()).count()
+    }
+}
+
+/// Loads and checks the model in `path` (with its imports).
+///
+/// A model with errors gives a [`CheckFailure`]; [`CheckFailure::render`] turns it into the
+/// message a user should see. A file that cannot be read is a failure with code `E009`.
+///
+/// # Examples
+///
+/// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models");
+/// let model = ghm::lang::load(&dir.join("cstr.ghm")).map_err(|e| e.render())?;
+/// assert_eq!(model.name, "cstr");
+/// let states: Vec<&str> = model.states.iter().map(|s| s.info.name.as_str()).collect();
+/// assert_eq!(states, ["ca", "temp"]);
+/// assert_eq!(model.sample_period, 6.0); // `sample step_s [s]` with `step_s = 6`
+/// assert_eq!(model.substeps, 20);
+/// assert_eq!(model.inputs[0].rate, Some(3.0));
+///
+/// let missing = ghm::lang::load(&dir.join("no-such-model.ghm")).unwrap_err();
+/// assert_eq!(missing.diagnostics[0].code, "E009");
+/// assert!(missing.render().contains("cannot read model file"));
+/// # Ok(())
+/// # }
+/// ```
+pub fn load(path: &Path) -> Result<Model, CheckFailure> {
+    let mut loader = Loader::default();
+    let statements = match std::fs::read(path) {
+        Ok(bytes) => loader.file(path, decode(bytes)),
+        Err(e) => {
+            return Err(CheckFailure {
+                sources: SourceMap::default(),
+                diagnostics: vec![Diagnostic::error(
+                    "E009",
+                    Span::default(),
+                    format!("cannot read model file `{}`: {e}", path.display()),
+                )
+                .help("check the path; model files end in .ghm")],
+            })
+        }
+    };
+    check(loader.sources, loader.diagnostics, statements)
+}
+
+/// Checks a model given as text (`name` is used in messages; imports are resolved relative
+/// to the current directory).
+///
+/// # Examples
+///
+/// A heated tank (the first model of `docs/language.md`, without weather):
+///
+/// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// let text = r#"
+/// model tank "a heated tank, 10-minute control"
+/// sample 10 [min] integrator rk4 substeps 2
+/// state temp [°C] = 15 "water temperature"
+/// input heat [kW] in [0, 5] rate 0.5 start 0 "heater power"
+/// param loss [kW °C^-1] = 0.1 uncertain "heat loss coefficient"
+/// const cap [kJ °C^-1] = 4186
+/// der temp = (heat - loss * (temp - 10)) / cap
+/// output t_water [°C] = temp
+/// cost heating [EUR] = 0.13 * heat * 600 / 3600
+/// "#;
+/// let model = ghm::lang::load_str("tank.ghm", text).map_err(|e| e.render())?;
+/// assert_eq!(model.name, "tank");
+/// assert_eq!(model.sample_period, 600.0); // seconds
+/// let heat = &model.inputs[0];
+/// assert_eq!((heat.lower, heat.upper, heat.rate, heat.start), (0.0, 5.0, Some(0.5), 0.0));
+/// assert_eq!(model.nominal_params(), [0.1]); // `const cap` is folded in, not a parameter
+/// assert_eq!(model.output_index("t_water"), Some(0));
+/// assert!(model.warnings.is_empty());
+/// # Ok(())
+/// # }
+/// ```
+pub fn load_str(name: &str, text: &str) -> Result<Model, CheckFailure> {
+    let mut loader = Loader::default();
+    let text = Decoded {
+        text: text.to_string(),
+        invalid: None,
+    };
+    let statements = loader.file(Path::new(name), text);
+    check(loader.sources, loader.diagnostics, statements)
+}
+
+#[derive(Default)]
+struct Loader {
+    sources: SourceMap,
+    diagnostics: Vec<Diagnostic>,
+    stack: Vec<PathBuf>,
+}
+
+impl Loader {
+    /// Parses one file and, in place of each `import`, the statements of the imported file.
+    /// A file that is not UTF-8 is an error at its first bad byte, and the rest of it (the
+    /// bad bytes replaced) is still parsed, so that its other errors are reported too.
+    fn file(&mut self, path: &Path, text: Decoded) -> Vec<Statement> {
+        let id = self.sources.add(SourceFile::new(path, text.text));
+        if let Some(bad) = text.invalid {
+            let at = bad.normalized_offset;
+            let display = &self.sources.files[id].display;
+            self.diagnostics.push(
+                Diagnostic::error(
+                    "E024",
+                    Span::new(id, at, at + '\u{FFFD}'.len_utf8()),
+                    format!(
+                        "`{display}` is not UTF-8 text: byte {} (0x{:02X}) is not UTF-8",
+                        bad.offset, bad.byte
+                    ),
+                )
+                .label("not UTF-8")
+                .help("save the file as UTF-8 (editors offer it as an encoding when saving)"),
+            );
+        }
+        let canonical = path.canonicalize().unwrap_or_else(|_| path.to_path_buf());
+        self.stack.push(canonical);
+        let (parsed, diags) = parse(id, &self.sources.files[id].text);
+        self.diagnostics.extend(diags);
+        let mut out = Vec::new();
+        for s in parsed {
+            if let Stmt::Import { path: rel, span } = &s.stmt {
+                let target = path.parent().unwrap_or(Path::new("")).join(rel);
+                let canonical = target.canonicalize().unwrap_or_else(|_| target.clone());
+                if self.stack.contains(&canonical) {
+                    self.diagnostics.push(
+                        Diagnostic::error("E020", *span, format!("import cycle: `{rel}` imports itself, directly or through other files"))
+                            .label("imported again here")
+                            .help("remove one of the imports in the cycle"),
+                    );
+                    continue;
+                }
+                match std::fs::read(&target) {
+                    Ok(bytes) => out.extend(self.file(&target, decode(bytes))),
+                    Err(e) => self.diagnostics.push(
+                        Diagnostic::error("E009", *span, format!("cannot import `{rel}`: {e}"))
+                            .label(format!("looked for {}", target.display()))
+                            .help("import paths are relative to the file that imports them"),
+                    ),
+                }
+            } else {
+                out.push(s);
+            }
+        }
+        self.stack.pop();
+        out
+    }
+}
