@@ -9,7 +9,7 @@ use ghm::model::Plant;
 use ghm::sim::metrics::Metrics;
 use ghm::sim::season::{run_season, SeasonConfig, StepLog};
 use ghm::sim::weather::{builtin_season, Weather};
-use ghm::solve::Sqp;
+use ghm::solve::Ipm;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -71,7 +71,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         vent_above_c: 19.0,
         co2_target_ppm: 900.0,
     };
-    let mut mpc = Mpc::new(plant.clone(), 6, Box::new(Sqp::default()))?;
+    let mut mpc = Mpc::new(plant.clone(), 6, Box::new(Ipm::default()))?;
     println!("two days on the built-in weather   EPI [EUR/m2]   cumulative reward [EUR/m2]");
     for (name, controller) in [
         ("rule-based", &mut rules as &mut dyn Controller),

@@ -11,7 +11,7 @@ use ghm::control::{ConstantInput, Controller, Mpc};
 use ghm::model::{ModelBuilder, Plant};
 use ghm::sim::season::{run_season, SeasonConfig, StepLog};
 use ghm::sim::weather::Weather;
-use ghm::solve::Sqp;
+use ghm::solve::Ipm;
 use std::sync::Arc;
 
 fn room() -> Result<ghm::lang::Model, ghm::model::BuildError> {
@@ -54,7 +54,7 @@ fn main() {
         enforce_limits: true,
         uncertainty: None,
     };
-    let mpc = match Mpc::new(plant.clone(), horizon, Box::new(Sqp::default())) {
+    let mpc = match Mpc::new(plant.clone(), horizon, Box::new(Ipm::default())) {
         Ok(mpc) => mpc,
         Err(e) => {
             eprintln!("error: {e}");

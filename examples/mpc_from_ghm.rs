@@ -9,7 +9,7 @@ use ghm::control::Mpc;
 use ghm::model::Plant;
 use ghm::sim::season::{run_season, SeasonConfig, StepLog};
 use ghm::sim::weather::builtin_season;
-use ghm::solve::Sqp;
+use ghm::solve::Ipm;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -26,7 +26,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         steps + horizon,
     )?;
 
-    let mut mpc = Mpc::new(plant.clone(), horizon, Box::new(Sqp::default()))?;
+    let mut mpc = Mpc::new(plant.clone(), horizon, Box::new(Ipm::default()))?;
     let config = SeasonConfig {
         steps,
         enforce_limits: true,

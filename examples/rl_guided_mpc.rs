@@ -11,7 +11,7 @@ use ghm::model::Plant;
 use ghm::rl::PolicyFile;
 use ghm::sim::season::{run_season, SeasonConfig, StepLog};
 use ghm::sim::weather::builtin_season;
-use ghm::solve::Sqp;
+use ghm::solve::Ipm;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -41,9 +41,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some(value),
         RlMpcOptions::default(), // ε = 5 % terminal region, exact terminal cost
     )?;
-    let rl_mpc = Mpc::new(plant.clone(), horizon, Box::new(Sqp::default()))?
+    let rl_mpc = Mpc::new(plant.clone(), horizon, Box::new(Ipm::default()))?
         .with_guidance(Box::new(guidance));
-    let mpc = Mpc::new(plant.clone(), horizon, Box::new(Sqp::default()))?;
+    let mpc = Mpc::new(plant.clone(), horizon, Box::new(Ipm::default()))?;
     let agent_alone = Policy::new(&plant, policy)?;
 
     let config = SeasonConfig {

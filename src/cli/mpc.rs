@@ -77,7 +77,7 @@ pub struct MpcArgs {
     #[arg(long, value_name = "H", default_value = "3h")]
     pub horizon: String,
     /// NLP back-end.
-    #[arg(long, value_enum, default_value_t = SolverChoice::Sqp)]
+    #[arg(long, value_enum, default_value_t = SolverChoice::Ipm)]
     pub solver: SolverChoice,
     /// Soft-band bounds to plan with: `auto` plans with the model file's `plan` bounds on
     /// an uncertain plant and with the scoring bounds on the nominal one.

@@ -61,7 +61,7 @@ pub struct RlmpcArgs {
     #[arg(long, value_enum, default_value_t = CostForm::Exact)]
     pub terminal_cost: CostForm,
     /// The NLP back-end.
-    #[arg(long, value_enum, default_value_t = SolverChoice::Sqp)]
+    #[arg(long, value_enum, default_value_t = SolverChoice::Ipm)]
     pub solver: SolverChoice,
     /// Soft-band bounds to plan with (as `ghm mpc --bands`).
     #[arg(long, value_enum, default_value_t = BandsChoice::Auto)]
