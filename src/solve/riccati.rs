@@ -215,7 +215,13 @@ impl Riccati {
     /// Factorises with `δ · shift` added to every `H_k` and to `H_N`. Fails at the first
     /// stage (going backwards) whose reduced Hessian `R̂_k` is not positive definite.
     pub fn factor(&mut self, delta: f64) -> Result<(), WrongInertia> {
-        self.factor_stages(delta, false).map(|_| ())
+        self.factor_from(delta, 0)
+    }
+
+    /// Like [`Riccati::factor`], with `δ · shift` added only to the stages from `first` on
+    /// (and to `H_N`): the stages a failed factorisation named, and those after them.
+    pub fn factor_from(&mut self, delta: f64, first: usize) -> Result<(), WrongInertia> {
+        self.factor_stages(delta, first, false).map(|_| ())
     }
 
     /// Factorises with the least correction stage by stage: where a reduced Hessian `R̂_k`
@@ -227,18 +233,27 @@ impl Riccati {
     /// in the stage's own controls: a flat direction elsewhere (a state the terminal cost
     /// barely curves) keeps its exact curvature instead of a shift sized for the worst
     /// stage. Returns how many stages were corrected; [`Riccati::corrections`] has the
-    /// `δ_k`. Fails only where a control has no shift or the numbers are not finite.
+    /// `δ_k`. Fails where a control has no shift, where the numbers are not finite, and
+    /// where a stage would need more than [`MAX_STAGE_CORRECTION`]: over a long horizon
+    /// the negative curvature of uncorrected states can pile up in the cost to go (a
+    /// 1920-stage season reached entries of 1e150), and then one shift of the whole
+    /// horizon ([`Riccati::factor_from`]) is the better correction.
     pub fn factor_corrected(&mut self) -> Result<usize, WrongInertia> {
-        self.factor_stages(0.0, true)
+        self.factor_stages(0.0, 0, true)
     }
 
     /// The `δ_k` of the last factorisation, per stage (the uniform `δ` of
-    /// [`Riccati::factor`] on every stage).
+    /// [`Riccati::factor_from`] on its stages, zero on the others).
     pub fn corrections(&self) -> &[f64] {
         &self.deltas
     }
 
-    fn factor_stages(&mut self, delta: f64, correct: bool) -> Result<usize, WrongInertia> {
+    fn factor_stages(
+        &mut self,
+        delta: f64,
+        first: usize,
+        correct: bool,
+    ) -> Result<usize, WrongInertia> {
         self.factored = false;
         let t = &self.terminal;
         self.p_terminal.copy_from(&t.h);
@@ -252,6 +267,7 @@ impl Riccati {
             let f = &mut done[k];
             let s = &self.stages[k];
             let (nz, nv) = (s.nz(), s.nv());
+            let delta = if k >= first { delta } else { 0.0 };
             // PA, PB with the next stage's P.
             next_p.mul_to(&s.a, &mut f.pa);
             next_p.mul_to(&s.b, &mut f.pb);
@@ -283,7 +299,9 @@ impl Riccati {
                         }
                         positive_definite(shifted).map(|chol| (delta_k, chol))
                     });
-                    let (delta_k, chol) = held.ok_or(WrongInertia { stage: k })?;
+                    let (delta_k, chol) = held
+                        .filter(|(d, _)| *d <= MAX_STAGE_CORRECTION)
+                        .ok_or(WrongInertia { stage: k })?;
                     self.deltas[k] = delta_k;
                     corrected += 1;
                     chol
@@ -381,6 +399,10 @@ fn positive_definite(m: DMatrix<f64>) -> Option<Cholesky<f64, Dyn>> {
     Some(chol)
 }
 
+/// The largest stage correction [`Riccati::factor_corrected`] makes (in the shift's
+/// metric, where a control's range is one).
+pub const MAX_STAGE_CORRECTION: f64 = 1e8;
+
 /// The `δ` that lifts `R̂ + δ · diag(shift)` just above positive definiteness: the most
 /// negative eigenvalue `λ` of `D^{-1/2} R̂ D^{-1/2}` (`D = diag(shift)`) becomes
 /// `MARGIN · |λ|` (or a small fraction of the largest eigenvalue where `λ` is near zero).
@@ -393,6 +415,9 @@ fn least_correction(r_hat: &DMatrix<f64>, shift: &[f64]) -> Option<f64> {
     let n = r_hat.nrows();
     let scaled = DMatrix::from_fn(n, n, |i, j| r_hat[(i, j)] / (shift[i] * shift[j]).sqrt());
     let eigenvalues = scaled.symmetric_eigenvalues();
+    if !eigenvalues.iter().all(|l| l.is_finite()) {
+        return None;
+    }
     let lowest = eigenvalues.min();
     let margin = (MARGIN * lowest.abs())
         .max(1e-12 * eigenvalues.amax())
@@ -453,5 +478,31 @@ mod tests {
         assert!(positive_definite(&d * &m * &d).is_some());
         let singular = DMatrix::from_row_slice(2, 2, &[1.0, 1.0, 1.0, 1.0 + 1e-17]);
         assert!(positive_definite(singular).is_none());
+    }
+
+    /// Negative state curvature under unstable dynamics piles up in the cost to go (×4
+    /// per stage here): over a long horizon the stage-wise correction would need more
+    /// than its cap and says so, and one shift of the whole horizon still cures it.
+    #[test]
+    fn curvature_piled_up_over_a_long_horizon_is_left_to_the_whole_horizon_shift() {
+        let stages: Vec<Stage> = (0..40)
+            .map(|_| {
+                let mut s = Stage::zeros(1, 1, 1);
+                s.h[(0, 0)] = -1.0;
+                s.h[(1, 1)] = 1.0;
+                s.a[(0, 0)] = 2.0;
+                s.b[(0, 0)] = 1e-3;
+                s
+            })
+            .collect();
+        let mut terminal = Terminal::zeros(1);
+        terminal.h[(0, 0)] = -1.0;
+        let mut r = Riccati::new(stages, terminal);
+        let failure = r
+            .factor_corrected()
+            .expect_err("the cost to go reaches 4^40");
+        assert!(failure.stage < 39, "{failure:?}");
+        assert!(r.factor(2.0).is_ok());
+        assert!(r.solve());
     }
 }

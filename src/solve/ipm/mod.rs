@@ -15,7 +15,12 @@
 //!   sized for the worst stage and damps every other direction with it: a value network's
 //!   terminal cost needed `δ ≈ 3` on the last stages while the terminal temperature's own
 //!   curvature was 3e-4, and the step crept towards the terminal region's bound for
-//!   hundreds of iterations. No convexification: where the reduced Hessian is positive
+//!   hundreds of iterations. Where a stage would need more than
+//!   [`super::riccati::MAX_STAGE_CORRECTION`] (negative curvature of the states piled up
+//!   in the cost to go over a long horizon, as on the 1920-stage season), one `δ` on the
+//!   states and controls of every stage from the failing one on takes over, with IPOPT's
+//!   schedule (1e-4 the first time, a third of the last value after that, ×100 or ×8 per
+//!   failure), narrowed by bisection towards the threshold. No convexification: where the reduced Hessian is positive
 //!   definite the exact Newton step is taken, and the convergence is quadratic.
 //! * Globalisation: IPOPT's filter line search on the barrier objective and the ℓ₁
 //!   constraint violation, fraction to the boundary `τ = max(0.99, 1 − μ)`, up to four
@@ -100,6 +105,9 @@ pub struct Ipm {
     layout: Option<Layout>,
     /// Inertia corrections made by the last solve.
     corrections: usize,
+    /// The last `δ` of the whole-horizon fallback correction (IPOPT's schedule starts
+    /// from a third of it).
+    last_delta: f64,
 }
 
 /// The stage map of one problem shape, with the patterns it was built from.
@@ -380,6 +388,7 @@ impl Ipm {
             iteration_limit: None,
             layout: None,
             corrections: 0,
+            last_delta: 0.0,
         }
     }
 
@@ -387,6 +396,58 @@ impl Ipm {
     /// solve.
     pub fn inertia_corrections(&self) -> usize {
         self.corrections
+    }
+
+    /// The fallback of the stage-wise correction: factorises with one `δ` on every stage
+    /// from the one that failed on (states and controls), the smallest of IPOPT's schedule
+    /// that gives the right inertia,
+    /// then narrows it down towards the threshold by bisection (in `log δ`, between the
+    /// last failure and the first success): a `δ` far above the threshold damps the step
+    /// along a direction of negative curvature to a crawl, one just above it lets the
+    /// step run to the bound that ends that direction, where the barrier's curvature
+    /// takes over.
+    fn factor(riccati: &mut Riccati, last_delta: &mut f64) -> Option<f64> {
+        let mut first = match riccati.factor(0.0) {
+            Ok(()) => return Some(0.0),
+            Err(e) => e.stage,
+        };
+        let mut delta = if *last_delta == 0.0 {
+            1e-4
+        } else {
+            (*last_delta / 3.0).max(1e-20)
+        };
+        let growth = if *last_delta == 0.0 { 100.0 } else { 8.0 };
+        let mut failed = delta / growth;
+        loop {
+            match riccati.factor_from(delta, first) {
+                Ok(()) => break,
+                // The missing curvature shows up earlier: shift from there on, same δ.
+                Err(e) if e.stage < first => first = e.stage,
+                Err(_) => {
+                    failed = delta;
+                    delta *= growth;
+                    if delta > 1e20 {
+                        return None;
+                    }
+                }
+            }
+        }
+        let mut current = true;
+        for _ in 0..4 {
+            let middle = (failed * delta).sqrt();
+            current = riccati.factor_from(middle, first).is_ok();
+            if current {
+                delta = middle;
+            } else {
+                failed = middle;
+            }
+        }
+        // The last try failed: the factorisation held is not `δ`'s.
+        if !current && riccati.factor_from(delta, first).is_err() {
+            return None;
+        }
+        *last_delta = delta;
+        Some(delta)
     }
 }
 
@@ -552,6 +613,7 @@ impl Ipm {
             bounds,
         };
         self.corrections = 0;
+        self.last_delta = 0.0;
         let warm = start.multipliers.is_some() && start.bound_multipliers.is_some();
         let mut mu = if warm {
             opts.warm_start_mu
@@ -747,7 +809,12 @@ impl Ipm {
                 dyn_residual[r] = ev.c[r] - setup.target[r];
             }
             map.fill_vectors(riccati, &condensed, &dyn_residual);
-            let Ok(corrected) = riccati.factor_corrected() else {
+            // Stage by stage, else one shift from the failing stage on.
+            let corrected = match riccati.factor_corrected() {
+                Ok(count) => Some(count),
+                Err(_) => Self::factor(riccati, &mut self.last_delta).map(|d| usize::from(d > 0.0)),
+            };
+            let Some(corrected) = corrected else {
                 return self.finish(
                     nlp,
                     &setup,
