@@ -1,11 +1,11 @@
-//! Economic MPC problems of the lettuce season solved by SQP (reads the Venlo weather in
-//! ../shared).
+//! Economic MPC problems of the lettuce season solved by SQP, beside the interior point
+//! (reads the Venlo weather in ../shared).
 
 mod common;
 
 use common::{closed_loop, closed_loop_with_bands, plant, states_along_season, venlo, STEPS};
 use ghm::nlp::{Bands, Nlp, Ocp};
-use ghm::solve::{kkt_residuals, Solver, Sqp, Start};
+use ghm::solve::{kkt_residuals, Ipm, Solver, Sqp, Start};
 
 #[test]
 fn shared_sqp_solutions_satisfy_kkt_at_ten_steps_of_the_season() {
@@ -36,6 +36,20 @@ fn shared_sqp_solutions_satisfy_kkt_at_ten_steps_of_the_season() {
                     sol.status
                 );
                 assert!(kkt.max() <= 1e-6, "{file} {hours} h, step {step}: {kkt:?}");
+                // SQP reports success only below that residual, so the check above holds
+                // by construction; the interior point, another algorithm from the same
+                // start, must find the same optimum.
+                let ipm = Ipm::default().solve(&mut ocp, Start::cold(&x));
+                assert!(
+                    ipm.status.is_success(),
+                    "{file} {hours} h, step {step}: ipm {:?}",
+                    ipm.status
+                );
+                let (f_sqp, f_ipm) = (sol.stats.objective, ipm.stats.objective);
+                assert!(
+                    (f_sqp - f_ipm).abs() <= 1e-6 * (1.0 + f_sqp.abs()),
+                    "{file} {hours} h, step {step}: SQP {f_sqp} vs IPM {f_ipm}"
+                );
             }
         }
     }
