@@ -145,7 +145,7 @@ fn hessian_matches_differences_of_the_lagrangian_gradient() {
 #[test]
 fn terminal_cost_and_terminal_box_shape_the_solution() {
     use ghm::nlp::{LinearTerminalCost, TerminalBox};
-    use ghm::solve::{kkt_residuals, Solver, Sqp, Start};
+    use ghm::solve::{kkt_residuals, Ipm, Solver, Sqp, Start};
     let plant = plant("models/lettuce.ghm");
     let n = 4;
     let forecast: Vec<f64> = (0..n).flat_map(|_| [120.0, 7e-4, 6.0, 6e-3]).collect();
@@ -159,6 +159,15 @@ fn terminal_cost_and_terminal_box_shape_the_solution() {
         assert!(s.status.is_success(), "{:?}", s.status);
         let kkt = kkt_residuals(ocp, &s.x, &s.multipliers, &s.bound_multipliers);
         assert!(kkt.max() <= 1e-6, "{kkt:?}");
+        // That holds by SQP's own stopping rule; the interior point, another algorithm,
+        // must find the same optimum.
+        let ipm = Ipm::default().solve(ocp, Start::cold(&start));
+        assert!(ipm.status.is_success(), "{:?}", ipm.status);
+        let (f, g) = (s.stats.objective, ipm.stats.objective);
+        assert!(
+            (f - g).abs() <= 1e-6 * (1.0 + f.abs()),
+            "SQP {f} vs IPM {g}"
+        );
         s
     };
     let mut plain = Ocp::new(plant.clone(), n).unwrap();
