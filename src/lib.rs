@@ -1,6 +1,6 @@
 //! ghm: economic model-predictive control with learned guidance.
 //!
-//! A plant and its economic cost come from a `.ghm` file ([`lang::load`]) or from Rust
+//! A plant and its economic cost come from a `.ghm` file ([`lang::load()`]) or from Rust
 //! ([`model::ModelBuilder`]); [`model::Plant`] compiles them into tapes with exact
 //! derivatives; a [`control::Controller`] — [`control::Mpc`] over an [`nlp::Ocp`] solved by
 //! [`solve::Sqp`] (or IPOPT, feature `ipopt`), or your own type — chooses the inputs; and

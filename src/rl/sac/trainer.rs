@@ -549,6 +549,7 @@ impl Trainer {
         Ok(PolicyFile {
             model: model_name.to_string(),
             observation_names: self.env.observation_names(),
+            action_names: self.env.action_names(),
             normalizer,
             actor: mean_head,
             episode,
