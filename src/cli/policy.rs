@@ -31,6 +31,9 @@ pub struct PolicyArgs {
     /// Run folder for trajectory.csv, summary.json and trajectory.png.
     #[arg(long, value_name = "DIR", default_value = "runs/policy")]
     pub out: PathBuf,
+    /// Replace the files of an earlier run in the --out folder (otherwise refused).
+    #[arg(long)]
+    pub overwrite: bool,
 }
 
 /// The policy file of an agent folder or file, which must exist.
@@ -69,6 +72,7 @@ pub fn run(args: &PolicyArgs) -> Result<(), CliError> {
         weather: &args.weather,
         uncertainty: &args.plant,
         out: &args.out,
+        overwrite: args.overwrite,
         enforce_limits: true,
         forecast: 0,
     };

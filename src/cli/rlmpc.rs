@@ -76,6 +76,9 @@ pub struct RlmpcArgs {
     /// Run folder.
     #[arg(long, value_name = "DIR", default_value = "runs/rlmpc")]
     pub out: PathBuf,
+    /// Replace the files of an earlier run in the --out folder (otherwise refused).
+    #[arg(long)]
+    pub overwrite: bool,
 }
 
 /// The value file of `--value`, or the shipped one for the guide.
@@ -187,7 +190,8 @@ pub fn run(args: &RlmpcArgs) -> Result<(), CliError> {
             weather: &args.weather,
             uncertainty: &args.plant,
             out,
-                enforce_limits: true,
+            overwrite: args.overwrite,
+            enforce_limits: true,
             forecast: horizon,
         }
     }
