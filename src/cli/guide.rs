@@ -2,7 +2,7 @@
 //! which agent, and where the shipped agents live (`models/agents/<model file stem>/`
 //! beside the model file).
 
-use crate::cli::policy::load_policy;
+use crate::cli::policy::policy_path;
 use crate::cli::weather_args::WeatherArgs;
 use crate::cli::CliError;
 use crate::control::{Controller, Expert, Policy};
@@ -52,27 +52,41 @@ pub fn shipped_dir(model_file: &Path, weather: &WeatherArgs) -> PathBuf {
     }
 }
 
-/// The policy of `--agent`, or the shipped one (see [`shipped_dir`]).
+/// The policy of `--agent`, or the shipped one (see [`shipped_dir`]), checked against
+/// `plant`: its observation and inputs must be the model's; another model name is only
+/// warned about.
 pub fn resolve_policy(
     model_file: &Path,
     weather: &WeatherArgs,
     agent: Option<&Path>,
+    plant: &Plant,
 ) -> Result<PolicyFile, CliError> {
-    match agent {
-        Some(a) => load_policy(a),
+    let path = match agent {
+        Some(a) => policy_path(a)?,
         None => {
             let dir = shipped_dir(model_file, weather);
-            let policy = load_policy(&dir).map_err(|_| {
-                CliError::Argument(format!(
+            let path = dir.join("policy.json");
+            if !path.is_file() {
+                return Err(CliError::Argument(format!(
                     "no agent shipped for {} (looked in {}); train one with `ghm train` and pass --agent DIR",
                     model_file.display(),
                     dir.display()
-                ))
-            })?;
+                )));
+            }
             eprintln!("using the agent shipped in {}", dir.display());
-            Ok(policy)
+            path
         }
+    };
+    let fail = |e: crate::rl::RlError| CliError::Argument(e.to_string());
+    let policy = PolicyFile::load(&path).map_err(fail)?;
+    policy.check_fits(&plant.model, &path).map_err(fail)?;
+    if policy.model != plant.model.name {
+        eprintln!(
+            "warning: the policy was trained on model `{}`, this is `{}`",
+            policy.model, plant.model.name
+        );
     }
+    Ok(policy)
 }
 
 /// A factory of guide controllers (one per thread or per use).
@@ -89,7 +103,7 @@ pub fn guide_factory(
     let fail = |e: crate::control::ControlError| CliError::Argument(e.to_string());
     match choice {
         GuideChoice::Sac => {
-            let file = resolve_policy(model_file, weather, agent)?;
+            let file = resolve_policy(model_file, weather, agent, plant)?;
             let policy = Policy::new(plant, file).map_err(fail)?;
             Ok(Box::new(move || {
                 Box::new(policy.clone()) as Box<dyn Controller + Send>

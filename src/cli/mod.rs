@@ -9,6 +9,7 @@ mod optimum;
 mod output;
 mod policy;
 mod rlmpc;
+mod run_folder;
 mod simulate;
 mod train;
 mod value;

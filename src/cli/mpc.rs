@@ -90,6 +90,9 @@ pub struct MpcArgs {
     /// Run folder for trajectory.csv, summary.json and trajectory.png.
     #[arg(long, value_name = "DIR", default_value = "runs/mpc")]
     pub out: PathBuf,
+    /// Replace the files of an earlier run in the --out folder (otherwise refused).
+    #[arg(long)]
+    pub overwrite: bool,
 }
 
 /// Steps of a horizon given as `3h`, `90min`, `5400s` or a plain number of steps.
@@ -149,6 +152,7 @@ pub fn run(args: &MpcArgs) -> Result<(), CliError> {
         weather: &args.weather,
         uncertainty: &args.plant,
         out: &args.out,
+        overwrite: args.overwrite,
         enforce_limits: true,
         forecast: horizon,
     };

@@ -35,9 +35,13 @@ pub struct OptimumArgs {
     /// Run folder for trajectory.csv, summary.json and trajectory.png.
     #[arg(long, value_name = "DIR", default_value = "runs/optimum")]
     pub out: PathBuf,
+    /// Replace the files of an earlier run in the --out folder (otherwise refused).
+    #[arg(long)]
+    pub overwrite: bool,
 }
 
 pub fn run(args: &OptimumArgs) -> Result<(), CliError> {
+    crate::cli::run_folder::check(&args.out, args.overwrite)?;
     let model = load_model(&args.file)?;
     let plant = Arc::new(Plant::new(model));
     let horizon = parse_horizon(&args.init_horizon, plant.model.sample_period)?;
@@ -106,6 +110,7 @@ pub fn run(args: &OptimumArgs) -> Result<(), CliError> {
         weather: &args.weather,
         uncertainty: &UncertaintyArgs::NOMINAL,
         out: &args.out,
+        overwrite: args.overwrite,
         enforce_limits: true,
         forecast: 0,
     };

@@ -1,9 +1,13 @@
-//! Run folders: the per-step trajectory CSV (written and flushed as the season runs, so a
-//! run stopped halfway keeps its rows), `summary.json`, the trajectory plot, and the
-//! progress bar.
+//! Run folders: the per-step trajectory CSV, `summary.json`, the trajectory plot, and the
+//! progress bar. Every file is written atomically ([`atomic`]): the trajectory is streamed
+//! (and flushed daily) into a temporary file that becomes `trajectory.csv` only when the
+//! season is complete; a season that fails keeps its rows as `trajectory.incomplete.csv`,
+//! and one killed leaves them in the hidden temporary file, never as a `trajectory.csv`
+//! that looks like a shorter valid run.
 
 use crate::cli::CliError;
 use crate::model::Plant;
+use crate::report::atomic::{self, AtomicFile};
 use crate::report::plot::{draw_png, Figure, Line, Panel};
 use crate::sim::season::{StepLog, StepSink};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -12,18 +16,27 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-pub fn create_dir(dir: &Path) -> Result<(), CliError> {
-    std::fs::create_dir_all(dir).map_err(|e| CliError::Output {
-        path: dir.to_path_buf(),
-        message: e.to_string(),
-    })
-}
-
-fn io_err(path: &Path) -> impl Fn(std::io::Error) -> CliError + '_ {
+/// An I/O error of `path` as a [`CliError::Output`].
+pub(crate) fn io_err(path: &Path) -> impl Fn(std::io::Error) -> CliError + '_ {
     move |e| CliError::Output {
         path: path.to_path_buf(),
         message: e.to_string(),
     }
+}
+
+/// Writes the result file `path` atomically: `write` writes the file at the path it is
+/// given (a temporary name beside `path`), which is then renamed into place.
+pub fn write_atomically<E: std::fmt::Display>(
+    path: &Path,
+    write: impl FnOnce(&Path) -> Result<(), E>,
+) -> Result<(), CliError> {
+    let fail = |message: String| CliError::Output {
+        path: path.to_path_buf(),
+        message,
+    };
+    let file = AtomicFile::new(path);
+    write(file.path()).map_err(|e| fail(e.to_string()))?;
+    file.commit().map_err(|e| fail(e.to_string()))
 }
 
 /// SHA-256 of the model file and its imports, in load order.
@@ -35,9 +48,13 @@ pub fn model_hash(plant: &Plant) -> String {
     h.finalize().iter().map(|b| format!("{b:02x}")).collect()
 }
 
+/// The name under which a failed season's rows are kept.
+pub const INCOMPLETE_TRAJECTORY: &str = "trajectory.incomplete.csv";
+
 /// Writes `trajectory.csv`, keeps the series for the plot, and drives the progress bar.
 pub struct TrajectoryWriter {
     path: PathBuf,
+    file: Option<AtomicFile>,
     out: BufWriter<File>,
     steps_per_day: usize,
     period_h: f64,
@@ -48,8 +65,8 @@ pub struct TrajectoryWriter {
 impl TrajectoryWriter {
     pub fn create(dir: &Path, plant: &Plant, steps: usize) -> Result<TrajectoryWriter, CliError> {
         let path = dir.join("trajectory.csv");
-        let file = File::create(&path).map_err(io_err(&path))?;
-        let mut out = BufWriter::new(file);
+        let file = AtomicFile::new(&path);
+        let mut out = BufWriter::new(File::create(file.path()).map_err(io_err(&path))?);
         let m = &plant.model;
         let mut header = vec!["k".to_string(), "time_h".to_string()];
         header.extend(m.states.iter().map(|s| format!("x_{}", s.info.name)));
@@ -93,6 +110,7 @@ impl TrajectoryWriter {
         );
         Ok(TrajectoryWriter {
             path,
+            file: Some(file),
             out,
             steps_per_day,
             period_h: m.sample_period / 3600.0,
@@ -101,9 +119,20 @@ impl TrajectoryWriter {
         })
     }
 
-    pub fn finish(&mut self) -> Result<(), CliError> {
+    /// Ends the trajectory: renamed to `trajectory.csv` if the season is `complete`,
+    /// otherwise to `trajectory.incomplete.csv`.
+    pub fn finish(&mut self, complete: bool) -> Result<(), CliError> {
         self.bar.finish_and_clear();
-        self.out.flush().map_err(io_err(&self.path))
+        self.out.flush().map_err(io_err(&self.path))?;
+        let Some(file) = self.file.take() else {
+            return Ok(());
+        };
+        if complete {
+            file.commit().map_err(io_err(&self.path))
+        } else {
+            let kept = self.path.with_file_name(INCOMPLETE_TRAJECTORY);
+            std::fs::rename(file.path(), &kept).map_err(io_err(&kept))
+        }
     }
 }
 
@@ -165,7 +194,7 @@ pub fn write_summary(dir: &Path, summary: &serde_json::Value) -> Result<(), CliE
         path: path.clone(),
         message: e.to_string(),
     })?;
-    std::fs::write(&path, text + "\n").map_err(io_err(&path))
+    atomic::write(&path, text + "\n").map_err(io_err(&path))
 }
 
 /// Draws `trajectory.png`: each state and output with its band, the inputs, and the
@@ -247,9 +276,5 @@ pub fn plot_trajectory(
         x,
         panels,
     };
-    let path = dir.join("trajectory.png");
-    draw_png(&fig, &path).map_err(|e| CliError::Output {
-        path,
-        message: e.to_string(),
-    })
+    write_atomically(&dir.join("trajectory.png"), |path| draw_png(&fig, path))
 }

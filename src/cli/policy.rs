@@ -8,7 +8,6 @@ use crate::cli::weather_args::{UncertaintyArgs, WeatherArgs};
 use crate::cli::{load_model, CliError};
 use crate::control::{Controller, Expert, Policy};
 use crate::model::Plant;
-use crate::rl::PolicyFile;
 use clap::Args;
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -32,10 +31,13 @@ pub struct PolicyArgs {
     /// Run folder for trajectory.csv, summary.json and trajectory.png.
     #[arg(long, value_name = "DIR", default_value = "runs/policy")]
     pub out: PathBuf,
+    /// Replace the files of an earlier run in the --out folder (otherwise refused).
+    #[arg(long)]
+    pub overwrite: bool,
 }
 
-/// The policy file of an agent folder or file.
-pub(crate) fn load_policy(agent: &Path) -> Result<PolicyFile, CliError> {
+/// The policy file of an agent folder or file, which must exist.
+pub(crate) fn policy_path(agent: &Path) -> Result<PathBuf, CliError> {
     let path = if agent.is_dir() {
         agent.join("policy.json")
     } else {
@@ -47,7 +49,7 @@ pub(crate) fn load_policy(agent: &Path) -> Result<PolicyFile, CliError> {
             path.display()
         )));
     }
-    PolicyFile::load(&path).map_err(|e| CliError::Argument(e.to_string()))
+    Ok(path)
 }
 
 pub fn run(args: &PolicyArgs) -> Result<(), CliError> {
@@ -57,13 +59,7 @@ pub fn run(args: &PolicyArgs) -> Result<(), CliError> {
         let expert = Expert::new(plant.clone()).map_err(|e| CliError::Argument(e.to_string()))?;
         (Box::new(expert), json!({ "agent": "expert" }))
     } else {
-        let file = resolve_policy(&args.file, &args.weather, args.agent.as_deref())?;
-        if file.model != plant.model.name {
-            eprintln!(
-                "warning: the policy was trained on model `{}`, this is `{}`",
-                file.model, plant.model.name
-            );
-        }
+        let file = resolve_policy(&args.file, &args.weather, args.agent.as_deref(), &plant)?;
         let extra = json!({
             "agent": args.agent.as_ref().map_or("shipped".into(), |a| a.display().to_string()),
             "agent_episode": file.episode,
@@ -76,6 +72,7 @@ pub fn run(args: &PolicyArgs) -> Result<(), CliError> {
         weather: &args.weather,
         uncertainty: &args.plant,
         out: &args.out,
+        overwrite: args.overwrite,
         enforce_limits: true,
         forecast: 0,
     };

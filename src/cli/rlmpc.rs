@@ -76,10 +76,13 @@ pub struct RlmpcArgs {
     /// Run folder.
     #[arg(long, value_name = "DIR", default_value = "runs/rlmpc")]
     pub out: PathBuf,
+    /// Replace the files of an earlier run in the --out folder (otherwise refused).
+    #[arg(long)]
+    pub overwrite: bool,
 }
 
 /// The value file of `--value`, or the shipped one for the guide.
-fn resolve_value(args: &RlmpcArgs) -> Result<ValueFile, CliError> {
+fn resolve_value(args: &RlmpcArgs, plant: &Plant) -> Result<ValueFile, CliError> {
     let path = match &args.value {
         Some(p) if p.is_dir() => p.join("value.json"),
         Some(p) => p.clone(),
@@ -98,7 +101,36 @@ fn resolve_value(args: &RlmpcArgs) -> Result<ValueFile, CliError> {
             }
         )));
     }
-    ValueFile::load(&path).map_err(|e| CliError::Argument(e.to_string()))
+    let value = ValueFile::load(&path).map_err(|e| CliError::Argument(e.to_string()))?;
+    check_value_fits(&value, &path, &plant.model)?;
+    Ok(value)
+}
+
+/// Refuses a value network that reads another state than the one its file names in this
+/// model; warns when it was fitted on a model of another name.
+fn check_value_fits(
+    value: &ValueFile,
+    path: &Path,
+    model: &crate::lang::Model,
+) -> Result<(), CliError> {
+    let state = model.states.get(value.state_index).map(|s| &s.info.name);
+    if state != Some(&value.state_name) {
+        return Err(CliError::Argument(format!(
+            "value file {}: \"state_index\" {} is {} in model `{}`, but the network was fitted on state `{}` (\"state_name\"); fit one for this model with `ghm value`",
+            path.display(),
+            value.state_index,
+            state.map_or("no state".to_string(), |s| format!("`{s}`")),
+            model.name,
+            value.state_name
+        )));
+    }
+    if value.model != model.name {
+        eprintln!(
+            "warning: the value network was fitted on model `{}`, this is `{}`",
+            value.model, model.name
+        );
+    }
+    Ok(())
 }
 
 pub fn run(args: &RlmpcArgs) -> Result<(), CliError> {
@@ -114,7 +146,7 @@ pub fn run(args: &RlmpcArgs) -> Result<(), CliError> {
     )?;
     let value = match args.terminal_cost {
         CostForm::None => None,
-        _ => Some(resolve_value(args)?),
+        _ => Some(resolve_value(args, &plant)?),
     };
     if let Some(v) = &value {
         if v.guide != args.guide.name() {
@@ -158,6 +190,7 @@ pub fn run(args: &RlmpcArgs) -> Result<(), CliError> {
             weather: &args.weather,
             uncertainty: &args.plant,
             out,
+            overwrite: args.overwrite,
             enforce_limits: true,
             forecast: horizon,
         }

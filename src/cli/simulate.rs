@@ -1,8 +1,7 @@
 //! `ghm simulate`: a season with fixed inputs or inputs from a CSV file.
 
-use crate::cli::output::{
-    create_dir, model_hash, plot_trajectory, write_summary, TrajectoryWriter,
-};
+use crate::cli::output::{model_hash, plot_trajectory, write_summary, TrajectoryWriter};
+use crate::cli::run_folder::RunFolder;
 use crate::cli::weather_args::{UncertaintyArgs, WeatherArgs};
 use crate::cli::{load_model, CliError};
 use crate::control::{ConstantInput, Controller, InputTable};
@@ -30,6 +29,9 @@ pub struct SimulateArgs {
     /// Run folder for trajectory.csv, summary.json and trajectory.png.
     #[arg(long, value_name = "DIR", default_value = "runs/simulate")]
     pub out: PathBuf,
+    /// Replace the files of an earlier run in the --out folder (otherwise refused).
+    #[arg(long)]
+    pub overwrite: bool,
 }
 
 fn parse_inputs(spec: Option<&str>, plant: &Plant) -> Result<Box<dyn Controller>, CliError> {
@@ -84,6 +86,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
         weather: &args.weather,
         uncertainty: &args.plant,
         out: &args.out,
+        overwrite: args.overwrite,
         enforce_limits: !args.no_rate_limit,
         forecast: 0,
     };
@@ -97,6 +100,8 @@ pub(crate) struct SeasonArgs<'a> {
     pub weather: &'a WeatherArgs,
     pub uncertainty: &'a UncertaintyArgs,
     pub out: &'a Path,
+    /// Replace an earlier run's files in `out` (see [`RunFolder::claim`]).
+    pub overwrite: bool,
     pub enforce_limits: bool,
     /// Steps of weather needed beyond the season (a controller's horizon).
     pub forecast: usize,
@@ -113,15 +118,30 @@ pub(crate) fn run_season_and_report(
     let uncertainty = args.uncertainty.draw()?;
     let steps = args.weather.steps(&plant.model)?;
     let weather = args.weather.load(&plant.model, steps, args.forecast)?;
-    create_dir(args.out)?;
     let config = SeasonConfig {
         steps,
         enforce_limits: args.enforce_limits,
         uncertainty,
     };
+    let folder = RunFolder::claim(args.out, args.overwrite)?;
+    folder.finish(season_files(
+        args, plant, controller, extra, &weather, &config,
+    ))
+}
+
+/// The season of [`run_season_and_report`] in its claimed folder.
+fn season_files(
+    args: &SeasonArgs,
+    plant: &Plant,
+    controller: &mut dyn Controller,
+    extra: serde_json::Value,
+    weather: &crate::sim::weather::Weather,
+    config: &SeasonConfig,
+) -> Result<crate::sim::metrics::Metrics, CliError> {
+    let steps = config.steps;
     let mut writer = TrajectoryWriter::create(args.out, plant, steps)?;
-    let result = run_season(plant, &weather, controller, &config, &mut writer);
-    writer.finish()?;
+    let result = run_season(plant, weather, controller, config, &mut writer);
+    writer.finish(result.is_ok())?;
     let result = result?;
     let m = &result.metrics;
     println!(

@@ -4,9 +4,11 @@
 //!
 //! The run folder holds `checkpoint/` (the full training state), `learning_curve.csv`,
 //! `learning_curve.png`, `policy.json` (the best evaluated deterministic policy, what
-//! `ghm policy` and RL-guided MPC load) and `summary.json`.
+//! `ghm policy` and RL-guided MPC load), `summary.json` (which records the season, so
+//! that `--resume` continues on it) and `run.json` (complete only once every episode ran).
 
-use crate::cli::output::{create_dir, model_hash, progress_bar, write_summary};
+use crate::cli::output::{model_hash, progress_bar, write_atomically, write_summary};
+use crate::cli::run_folder::RunFolder;
 use crate::cli::weather_args::WeatherArgs;
 use crate::cli::{load_model, CliError};
 use crate::model::Plant;
@@ -16,7 +18,6 @@ use crate::rl::Env;
 use crate::sim::season::UncertaintyDraw;
 use clap::Args;
 use serde_json::json;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -27,84 +28,123 @@ pub struct TrainArgs {
     pub file: PathBuf,
     #[command(flatten)]
     pub weather: WeatherArgs,
-    /// Episodes in all (each one season), the random warm-up included.
-    #[arg(long, value_name = "N", default_value_t = 100)]
-    pub episodes: usize,
-    /// Episodes of random actions before learning starts.
-    #[arg(long, value_name = "N", default_value_t = 9)]
-    pub warmup: usize,
+    /// Episodes in all (each one season), the random warm-up included [default: 100].
+    #[arg(long, value_name = "N")]
+    pub episodes: Option<usize>,
+    /// Episodes of random actions before learning starts; fewer than --episodes
+    /// [default: 9].
+    #[arg(long, value_name = "N")]
+    pub warmup: Option<usize>,
     /// Train on the stochastic plant (parameters drawn per episode with --uncertainty).
     #[arg(long)]
     pub stochastic: bool,
-    /// Parametric uncertainty δ of the stochastic plant.
-    #[arg(long, value_name = "DELTA", default_value_t = 0.05)]
-    pub uncertainty: f64,
-    /// Seed of the training (weights, exploration, batches, parameter draws).
-    #[arg(long, value_name = "S", default_value_t = 4)]
-    pub seed: u64,
+    /// Parametric uncertainty δ of the stochastic plant [default: 0.05].
+    #[arg(long, value_name = "DELTA")]
+    pub uncertainty: Option<f64>,
+    /// Seed of the training (weights, exploration, batches, parameter draws) [default: 4].
+    #[arg(long, value_name = "S")]
+    pub seed: Option<u64>,
     /// Write a checkpoint every N episodes (and at the end).
     #[arg(long, value_name = "N", default_value_t = 5)]
     pub checkpoint_every: usize,
     /// Run folder.
     #[arg(long, value_name = "DIR", default_value = "runs/train")]
     pub out: PathBuf,
-    /// Continue the training whose checkpoint is in DIR (its settings are kept; the model
-    /// file and weather options must be the same as when it started).
+    /// Replace the files of an earlier run in the --out folder (otherwise refused).
+    #[arg(long)]
+    pub overwrite: bool,
+    /// Continue the training whose checkpoint is in DIR with the model file it started
+    /// with. Its weather, season length, episodes, warm-up, seed and plant are taken from
+    /// the folder; an option that says otherwise is refused.
     #[arg(long, value_name = "DIR", conflicts_with = "out")]
     pub resume: Option<PathBuf>,
 }
 
+/// What a training runs on, from the arguments or, resumed, from its folder.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+struct Season {
+    weather_args: WeatherArgs,
+    stochastic: bool,
+    uncertainty: f64,
+    seed: u64,
+}
+
+impl Season {
+    /// The season of the options given (their defaults where not given).
+    fn given(args: &TrainArgs) -> Season {
+        Season {
+            weather_args: args.weather.clone(),
+            stochastic: args.stochastic,
+            uncertainty: match args.stochastic {
+                true => args.uncertainty.unwrap_or(0.05),
+                false => 0.0,
+            },
+            seed: args.seed.unwrap_or(4),
+        }
+    }
+}
+
 pub fn run(args: &TrainArgs) -> Result<(), CliError> {
+    if args.checkpoint_every == 0 {
+        return Err(CliError::Argument(
+            "--checkpoint-every must be at least 1".into(),
+        ));
+    }
     let model = load_model(&args.file)?;
     let plant = Arc::new(Plant::new(model));
-    let steps = args.weather.steps(&plant.model)?;
-    let weather = args.weather.load(&plant.model, steps, 0)?;
-    if args.stochastic && !(args.uncertainty > 0.0 && args.uncertainty < 1.0) {
+    let hash = model_hash(&plant);
+    let season = match &args.resume {
+        Some(dir) => recorded_season(dir, args, &hash)?,
+        None => Season::given(args),
+    };
+    if season.stochastic && !(season.uncertainty > 0.0 && season.uncertainty < 1.0) {
         return Err(CliError::Argument(
             "--stochastic needs --uncertainty in (0, 1)".into(),
         ));
     }
-    let uncertainty = args.stochastic.then_some(UncertaintyDraw {
-        delta: args.uncertainty,
-        seed: args.seed,
+    let weather_args = &season.weather_args;
+    let steps = weather_args.steps(&plant.model)?;
+    let weather = weather_args.load(&plant.model, steps, 0)?;
+    let uncertainty = season.stochastic.then_some(UncertaintyDraw {
+        delta: season.uncertainty,
+        seed: season.seed,
     });
     let env = Env::new(plant.clone(), weather, steps, uncertainty).map_err(rl)?;
-    let hash = model_hash(&plant);
-    let (dir, mut trainer) = match &args.resume {
+    let (folder, mut trainer) = match &args.resume {
         Some(dir) => {
-            check_same_run(dir, &hash)?;
             let trainer = Trainer::resume(env, dir).map_err(rl)?;
+            check_same_settings(args, trainer.config())?;
             println!(
                 "resuming {} after episode {} of {}",
                 dir.display(),
                 trainer.episodes_done(),
                 trainer.config().episodes
             );
-            (dir.clone(), trainer)
+            (RunFolder::continue_in(dir)?, trainer)
         }
         None => {
-            if checkpoint::exists(&args.out) {
+            if checkpoint::exists(&args.out) && !args.overwrite {
                 return Err(CliError::Argument(format!(
                     "{} already holds a training; continue it with --resume {} or choose another --out",
                     args.out.display(),
                     args.out.display()
                 )));
             }
-            if args.checkpoint_every == 0 {
-                return Err(CliError::Argument(
-                    "--checkpoint-every must be at least 1".into(),
-                ));
-            }
             let config = SacConfig {
-                episodes: args.episodes,
-                warmup_episodes: args.warmup,
-                seed: args.seed,
-                eval_episodes: if args.stochastic { 3 } else { 1 },
+                episodes: args.episodes.unwrap_or(100),
+                warmup_episodes: args.warmup.unwrap_or(9),
+                seed: season.seed,
+                eval_episodes: if season.stochastic { 3 } else { 1 },
                 ..SacConfig::default()
             };
+            if config.warmup_episodes >= config.episodes {
+                return Err(CliError::Argument(format!(
+                    "--warmup {} is not fewer than --episodes {}: the training would end before it learns anything",
+                    config.warmup_episodes, config.episodes
+                )));
+            }
             let trainer = Trainer::new(env, config).map_err(rl)?;
-            create_dir(&args.out)?;
-            (args.out.clone(), trainer)
+            (RunFolder::claim(&args.out, args.overwrite)?, trainer)
         }
     };
     let meta = json!({
@@ -112,33 +152,97 @@ pub fn run(args: &TrainArgs) -> Result<(), CliError> {
         "model": args.file.display().to_string(),
         "model_name": plant.model.name,
         "model_sha256": hash,
-        "weather": args.weather.describe(&plant.model),
+        "weather": weather_args.describe(&plant.model),
         "episode_steps": steps,
-        "stochastic": args.stochastic,
-        "uncertainty": if args.stochastic { args.uncertainty } else { 0.0 },
+        "stochastic": season.stochastic,
+        "uncertainty": season.uncertainty,
+        "season": season,
     });
-    train(&mut trainer, &dir, &plant, args.checkpoint_every, &meta)
+    let dir = args.resume.as_ref().unwrap_or(&args.out);
+    folder.finish(train(
+        &mut trainer,
+        dir,
+        &plant,
+        args.checkpoint_every,
+        &meta,
+    ))
 }
 
 fn rl(e: crate::rl::RlError) -> CliError {
     CliError::Argument(e.to_string())
 }
 
-/// Refuses to resume a training of another model.
-fn check_same_run(dir: &Path, hash: &str) -> Result<(), CliError> {
+/// The season a training in `dir` runs on, as its `summary.json` records it. Refuses a
+/// training of another model, and options that say otherwise than the record. A folder
+/// of a ghm that did not record the season yet continues with the options given.
+fn recorded_season(dir: &Path, args: &TrainArgs, hash: &str) -> Result<Season, CliError> {
     let path = dir.join("summary.json");
+    let given = Season::given(args);
     let Ok(text) = std::fs::read_to_string(&path) else {
-        return Ok(());
+        return Ok(given);
     };
     let summary: serde_json::Value = serde_json::from_str(&text)
         .map_err(|e| CliError::Argument(format!("{}: {e}", path.display())))?;
-    match summary.get("model_sha256").and_then(|v| v.as_str()) {
-        Some(h) if h != hash => Err(CliError::Argument(format!(
+    if let Some(h) = summary["model_sha256"].as_str().filter(|h| *h != hash) {
+        return Err(CliError::Argument(format!(
             "{} was trained on another model (sha256 {h}); pass the same model file",
             dir.display()
-        ))),
-        _ => Ok(()),
+        )));
     }
+    let Some(recorded) = summary.get("season") else {
+        return Ok(given);
+    };
+    let recorded: Season = serde_json::from_value(recorded.clone())
+        .map_err(|e| CliError::Argument(format!("{}: \"season\": {e}", path.display())))?;
+    let conflict = |option: &str| {
+        CliError::Argument(format!(
+            "{option} differs from the training in {} (it was started with {}); a resumed training keeps its season: drop the option",
+            dir.display(),
+            recorded_command(&summary)
+        ))
+    };
+    if !args.weather.is_default() && args.weather != recorded.weather_args {
+        return Err(conflict("a weather or season-length option"));
+    }
+    if (args.stochastic && !recorded.stochastic)
+        || args.uncertainty.is_some_and(|u| u != recorded.uncertainty)
+    {
+        return Err(conflict("--stochastic/--uncertainty"));
+    }
+    Ok(recorded)
+}
+
+/// The command line a summary records, for messages.
+fn recorded_command(summary: &serde_json::Value) -> String {
+    match summary["command"].as_array() {
+        Some(words) => {
+            let words: Vec<&str> = words.iter().filter_map(|w| w.as_str()).collect();
+            format!("`{}`", words.join(" "))
+        }
+        None => "other options".into(),
+    }
+}
+
+/// Refuses `--episodes`, `--warmup` and `--seed` that differ from a resumed training's.
+fn check_same_settings(args: &TrainArgs, config: &SacConfig) -> Result<(), CliError> {
+    let checks = [
+        ("--episodes", args.episodes, config.episodes),
+        ("--warmup", args.warmup, config.warmup_episodes),
+    ];
+    for (option, given, kept) in checks {
+        if let Some(given) = given.filter(|g| *g != kept) {
+            return Err(CliError::Argument(format!(
+                "{option} {given} conflicts with the checkpoint's {kept}: a resumed training keeps its settings; drop {option}"
+            )));
+        }
+    }
+    if let Some(seed) = args.seed.filter(|s| *s != config.seed) {
+        return Err(CliError::Argument(format!(
+            "--seed {seed} conflicts with the checkpoint's {}: a resumed training keeps its settings; drop --seed",
+            config.seed
+        )));
+    }
+    Ok(())
 }
 
 fn train(
@@ -283,21 +387,12 @@ fn save(
 
 /// `learning_curve.csv` and `learning_curve.png`.
 fn write_curve(dir: &Path, curve: &[EpisodeRecord]) -> Result<(), CliError> {
-    let path = dir.join("learning_curve.csv");
-    let fail = |e: std::io::Error| CliError::Output {
-        path: path.clone(),
-        message: e.to_string(),
-    };
-    let mut out = std::io::BufWriter::new(std::fs::File::create(&path).map_err(fail)?);
-    writeln!(
-        out,
-        "episode,total_steps,steps,reward,eval_reward,warmup,diverged,critic_loss,actor_loss,alpha,entropy,wall_s"
-    )
-    .map_err(fail)?;
+    let mut csv = String::from(
+        "episode,total_steps,steps,reward,eval_reward,warmup,diverged,critic_loss,actor_loss,alpha,entropy,wall_s\n",
+    );
     for r in curve {
-        writeln!(
-            out,
-            "{},{},{},{},{},{},{},{},{},{},{},{:.3}",
+        csv += &format!(
+            "{},{},{},{},{},{},{},{},{},{},{},{:.3}\n",
             r.episode,
             r.total_steps,
             r.steps,
@@ -310,10 +405,11 @@ fn write_curve(dir: &Path, curve: &[EpisodeRecord]) -> Result<(), CliError> {
             r.alpha,
             r.entropy,
             r.wall_s
-        )
-        .map_err(fail)?;
+        );
     }
-    out.flush().map_err(fail)?;
+    write_atomically(&dir.join("learning_curve.csv"), |path| {
+        std::fs::write(path, &csv)
+    })?;
     let x: Vec<f64> = curve.iter().map(|r| r.episode as f64).collect();
     let training = Line {
         label: "training episode".into(),
@@ -326,17 +422,14 @@ fn write_curve(dir: &Path, curve: &[EpisodeRecord]) -> Result<(), CliError> {
             .map(|r| r.eval_reward.unwrap_or(f64::NAN))
             .collect(),
     };
-    let png = dir.join("learning_curve.png");
-    draw_xy(
-        "SAC learning curve",
-        "episode",
-        "cumulative reward",
-        &x,
-        &[training, evaluation],
-        &png,
-    )
-    .map_err(|e| CliError::Output {
-        path: png.clone(),
-        message: e.to_string(),
+    write_atomically(&dir.join("learning_curve.png"), |path| {
+        draw_xy(
+            "SAC learning curve",
+            "episode",
+            "cumulative reward",
+            &x,
+            &[training, evaluation],
+            path,
+        )
     })
 }

@@ -4,8 +4,9 @@
 //! (CSV and PNG) and `summary.json` (losses, timings, and the value predicted at the
 //! season start beside the return the guide earned from there).
 
-use crate::cli::guide::{guide_factory, GuideChoice};
-use crate::cli::output::{create_dir, model_hash, progress_bar as bar, write_summary};
+use crate::cli::guide::{guide_factory, GuideChoice, GuideFactory};
+use crate::cli::output::{model_hash, progress_bar as bar, write_atomically, write_summary};
+use crate::cli::run_folder::RunFolder;
 use crate::cli::weather_args::WeatherArgs;
 use crate::cli::{load_model, CliError};
 use crate::control::ValueFile;
@@ -15,7 +16,6 @@ use crate::rl::value_fit::{fit_value, EpochLoss, ValueFitConfig};
 use crate::sim::value_data::{nominal_run, sample_returns, ValueDataConfig};
 use clap::Args;
 use serde_json::json;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -51,6 +51,9 @@ pub struct ValueArgs {
     /// Run folder.
     #[arg(long, value_name = "DIR", default_value = "runs/value")]
     pub out: PathBuf,
+    /// Replace the files of an earlier run in the --out folder (otherwise refused).
+    #[arg(long)]
+    pub overwrite: bool,
 }
 
 pub fn run(args: &ValueArgs) -> Result<(), CliError> {
@@ -82,18 +85,36 @@ pub fn run(args: &ValueArgs) -> Result<(), CliError> {
         &args.weather,
         args.agent.as_deref(),
     )?;
-    create_dir(&args.out)?;
+    let folder = RunFolder::claim(&args.out, args.overwrite)?;
+    folder.finish(fit_and_write(
+        args,
+        &plant,
+        state_index,
+        steps,
+        &weather,
+        &make_guide,
+    ))
+}
 
+/// Rolls the guide out, fits the value network and writes the run's files.
+fn fit_and_write(
+    args: &ValueArgs,
+    plant: &Arc<Plant>,
+    state_index: usize,
+    steps: usize,
+    weather: &crate::sim::weather::Weather,
+    make_guide: &GuideFactory,
+) -> Result<(), CliError> {
     let started = Instant::now();
     let mut guide = make_guide();
-    let nominal = nominal_run(&plant, &weather, steps, guide.as_mut())?;
+    let nominal = nominal_run(plant, weather, steps, guide.as_mut())?;
     let progress = bar(
         args.trajectories as u64,
         "roll-outs {bar:30} {pos}/{len} [{elapsed_precise}, eta {eta}]",
     );
     let data = sample_returns(
-        &plant,
-        &weather,
+        plant,
+        weather,
         steps,
         &nominal,
         &|| make_guide() as Box<dyn crate::control::Controller>,
@@ -180,11 +201,7 @@ pub fn run(args: &ValueArgs) -> Result<(), CliError> {
         train_loss: last.train,
         validation_loss: last.validation,
     };
-    let value_path = args.out.join("value.json");
-    value.save(&value_path).map_err(|e| CliError::Output {
-        path: value_path.clone(),
-        message: e.to_string(),
-    })?;
+    write_atomically(&args.out.join("value.json"), |path| value.save(path))?;
     write_curve(&args.out, &curve)?;
     let predicted = value.value(&nominal.states[0], 0);
     println!(
@@ -200,7 +217,7 @@ pub fn run(args: &ValueArgs) -> Result<(), CliError> {
     let summary = json!({
         "command": std::env::args().collect::<Vec<_>>(),
         "model": args.file.display().to_string(),
-        "model_sha256": model_hash(&plant),
+        "model_sha256": model_hash(plant),
         "weather": args.weather.describe(&plant.model),
         "guide": args.guide.name(),
         "agent": args.agent.as_ref().map(|a| a.display().to_string()),
@@ -229,17 +246,13 @@ pub fn run(args: &ValueArgs) -> Result<(), CliError> {
 }
 
 fn write_curve(dir: &Path, curve: &[EpochLoss]) -> Result<(), CliError> {
-    let path = dir.join("value_curve.csv");
-    let fail = |e: std::io::Error| CliError::Output {
-        path: path.clone(),
-        message: e.to_string(),
-    };
-    let mut out = std::io::BufWriter::new(std::fs::File::create(&path).map_err(fail)?);
-    writeln!(out, "epoch,train_mse,validation_mse").map_err(fail)?;
+    let mut csv = String::from("epoch,train_mse,validation_mse\n");
     for e in curve {
-        writeln!(out, "{},{},{}", e.epoch, e.train, e.validation).map_err(fail)?;
+        csv += &format!("{},{},{}\n", e.epoch, e.train, e.validation);
     }
-    out.flush().map_err(fail)?;
+    write_atomically(&dir.join("value_curve.csv"), |path| {
+        std::fs::write(path, &csv)
+    })?;
     let x: Vec<f64> = curve.iter().map(|e| e.epoch as f64).collect();
     let log10 = |v: f64| if v > 0.0 { v.log10() } else { f64::NAN };
     let lines = [
@@ -252,11 +265,7 @@ fn write_curve(dir: &Path, curve: &[EpochLoss]) -> Result<(), CliError> {
             values: curve.iter().map(|e| log10(e.validation)).collect(),
         },
     ];
-    let png = dir.join("value_curve.png");
-    draw_xy("value network fit", "epoch", "log10 MSE", &x, &lines, &png).map_err(|e| {
-        CliError::Output {
-            path: png.clone(),
-            message: e.to_string(),
-        }
+    write_atomically(&dir.join("value_curve.png"), |path| {
+        draw_xy("value network fit", "epoch", "log10 MSE", &x, &lines, path)
     })
 }

@@ -8,7 +8,9 @@ use crate::sim::weather::{builtin_season, load_csv, load_knmi, Weather, WeatherF
 use clap::Args;
 use std::path::PathBuf;
 
-#[derive(Debug, Clone, Args)]
+/// Recorded in a training's `summary.json`, so that `ghm train --resume` continues on the
+/// same season.
+#[derive(Debug, Clone, PartialEq, Args, serde::Serialize, serde::Deserialize)]
 pub struct WeatherArgs {
     /// Weather CSV with a header of named columns (e.g. ../shared/data/venlo2014_30min_model_units.csv).
     /// Without --weather or --knmi, ghm's built-in Dutch late-winter season is used.
@@ -35,6 +37,17 @@ pub struct WeatherArgs {
 }
 
 impl WeatherArgs {
+    /// Whether no weather or season-length option was given (every one at its default).
+    pub fn is_default(&self) -> bool {
+        self.weather.is_none()
+            && self.start_row == 0
+            && self.knmi.is_none()
+            && self.knmi_co2 == 420.0
+            && self.weather_seed == 2014
+            && self.days.is_none()
+            && self.steps.is_none()
+    }
+
     /// Whether the season runs on ghm's built-in weather (no `--weather`, no `--knmi`).
     pub fn is_builtin(&self) -> bool {
         self.weather.is_none() && self.knmi.is_none()

@@ -1,4 +1,6 @@
 //! The error type of the `nn` room: inconsistent shapes and unreadable network files.
+//! Each shape error names the JSON field it is about (`layers[1].weight`), so that a
+//! message about a file says where in it to look.
 
 use std::path::PathBuf;
 use thiserror::Error;
@@ -7,10 +9,10 @@ use thiserror::Error;
 #[derive(Debug, Error)]
 pub enum NnError {
     /// The network was given no layers.
-    #[error("a network needs at least one layer")]
+    #[error("\"layers\" is empty: a network needs at least one layer")]
     NoLayers,
     /// A layer's weight or bias vector does not match its declared shape.
-    #[error("layer {layer} has {weights} weights and {biases} biases; {inputs} inputs × {outputs} outputs need {expected} and {outputs}")]
+    #[error("layers[{layer}] declares {inputs} inputs × {outputs} outputs, which need {expected} weights and {outputs} biases; its \"weight\" holds {weights} and its \"bias\" {biases}")]
     LayerShape {
         /// The layer, 0-based.
         layer: usize,
@@ -26,7 +28,7 @@ pub enum NnError {
         expected: usize,
     },
     /// A layer's inputs differ from the previous layer's outputs.
-    #[error("layer {layer} takes {inputs} inputs but the layer before gives {previous}")]
+    #[error("layers[{layer}].inputs is {inputs} but the layer before gives {previous} outputs")]
     Chain {
         /// The layer, 0-based (never 0).
         layer: usize,
@@ -35,13 +37,21 @@ pub enum NnError {
         /// The outputs of the layer before.
         previous: usize,
     },
-    /// A layer holds a NaN or infinite weight or bias. Also reported, as layer 0, for a
-    /// [`ScaledMlp`](crate::nn::ScaledMlp) whose input box is not finite or empty, or whose
-    /// output map is not finite.
-    #[error("layer {layer} holds a non-finite weight or bias")]
+    /// A layer holds a NaN or infinite weight or bias.
+    #[error("layers[{layer}] holds a non-finite weight or bias")]
     NonFinite {
         /// The layer, 0-based.
         layer: usize,
+    },
+    /// A [`ScaledMlp`](crate::nn::ScaledMlp)'s input box or output map is wrong: a box of
+    /// another width than the network's inputs, not finite or empty, or a non-finite
+    /// output map.
+    #[error("{field}: {reason}")]
+    Scaling {
+        /// The field, as named in the file (`input_upper`, `output_scale`, ...).
+        field: &'static str,
+        /// What is wrong with it.
+        reason: String,
     },
     /// An input vector (or an input box) of the wrong length.
     #[error("the network takes {expected} inputs; {given} were given")]

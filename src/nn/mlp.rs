@@ -123,11 +123,30 @@ impl Dense {
 /// assert!((y - 1.5f64.tanh()).abs() < 1e-15);
 /// assert!((dy - 2.0 * (1.0 - 1.5f64.tanh().powi(2))).abs() < 1e-15);
 /// ```
+///
+/// Reading one from JSON checks it as [`Mlp::new`] does, so a network inside any file (a
+/// policy, a value function) is valid once it is read.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "MlpData")]
 pub struct Mlp {
     layers: Vec<Dense>,
     hidden: Activation,
     output: Activation,
+}
+
+/// The serialised form of an [`Mlp`], checked on the way in.
+#[derive(Deserialize)]
+struct MlpData {
+    layers: Vec<Dense>,
+    hidden: Activation,
+    output: Activation,
+}
+
+impl TryFrom<MlpData> for Mlp {
+    type Error = NnError;
+    fn try_from(d: MlpData) -> Result<Mlp, NnError> {
+        Mlp::new(d.layers, d.hidden, d.output)
+    }
 }
 
 impl Mlp {
@@ -308,13 +327,13 @@ impl Mlp {
         Ok(current)
     }
 
-    /// Writes the network as JSON.
+    /// Writes the network as JSON, atomically (see [`atomic`](crate::report::atomic)).
     pub fn save(&self, path: &Path) -> Result<(), NnError> {
         let text = serde_json::to_string(self).map_err(|source| NnError::Format {
             path: path.to_path_buf(),
             source,
         })?;
-        std::fs::write(path, text).map_err(|source| NnError::Write {
+        crate::report::atomic::write(path, text).map_err(|source| NnError::Write {
             path: path.to_path_buf(),
             source,
         })
@@ -351,12 +370,10 @@ impl Mlp {
             path: path.to_path_buf(),
             source,
         })?;
-        let net: Mlp = serde_json::from_str(&text).map_err(|source| NnError::Format {
+        serde_json::from_str(&text).map_err(|source| NnError::Format {
             path: path.to_path_buf(),
             source,
-        })?;
-        net.validate()?;
-        Ok(net)
+        })
     }
 }
 

@@ -21,7 +21,10 @@ pub const INPUT_HALF_RANGE: f64 = 5.0;
 /// assert!((v.evaluate(&[1.0f64]) - 3.0).abs() < 1e-15); // the middle of the box → z = 0
 /// assert!((v.evaluate(&[2.0f64]) - 5.5).abs() < 1e-15); // the top → z = 5
 /// ```
+///
+/// Reading one from JSON checks it as [`ScaledMlp::new`] does.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "ScaledMlpData")]
 pub struct ScaledMlp {
     /// The network, in normalised units on both sides.
     pub net: Mlp,
@@ -33,6 +36,29 @@ pub struct ScaledMlp {
     pub output_offset: f64,
     /// Multiplies the network output: `y = offset + scale · net(z)`.
     pub output_scale: f64,
+}
+
+/// The serialised form of a [`ScaledMlp`], checked on the way in.
+#[derive(Deserialize)]
+struct ScaledMlpData {
+    net: Mlp,
+    input_lower: Vec<f64>,
+    input_upper: Vec<f64>,
+    output_offset: f64,
+    output_scale: f64,
+}
+
+impl TryFrom<ScaledMlpData> for ScaledMlp {
+    type Error = NnError;
+    fn try_from(d: ScaledMlpData) -> Result<ScaledMlp, NnError> {
+        ScaledMlp::new(
+            d.net,
+            d.input_lower,
+            d.input_upper,
+            d.output_offset,
+            d.output_scale,
+        )
+    }
 }
 
 impl ScaledMlp {
@@ -58,8 +84,16 @@ impl ScaledMlp {
     /// The checks of [`ScaledMlp::new`], for values read from a file.
     pub fn validate(&self) -> Result<(), NnError> {
         check_box(&self.input_lower, &self.input_upper, self.net.inputs())?;
-        if !self.output_offset.is_finite() || !self.output_scale.is_finite() {
-            return Err(NnError::NonFinite { layer: 0 });
+        for (field, value) in [
+            ("output_offset", self.output_offset),
+            ("output_scale", self.output_scale),
+        ] {
+            if !value.is_finite() {
+                return Err(NnError::Scaling {
+                    field,
+                    reason: format!("{value} is not finite"),
+                });
+            }
         }
         Ok(())
     }
@@ -89,18 +123,26 @@ pub fn normalise_into_box<T: Real>(raw: &[T], lower: &[f64], upper: &[f64]) -> V
 
 /// Checks an input box for `width` inputs: the right length, finite, `upper > lower`.
 pub fn check_box(lower: &[f64], upper: &[f64], width: usize) -> Result<(), NnError> {
-    if lower.len() != width || upper.len() != width {
-        return Err(NnError::InputWidth {
-            given: lower.len().min(upper.len()),
-            expected: width,
-        });
+    for (field, bound) in [("input_lower", lower), ("input_upper", upper)] {
+        if bound.len() != width {
+            return Err(NnError::Scaling {
+                field,
+                reason: format!("{} values for a network of {width} inputs", bound.len()),
+            });
+        }
     }
-    let box_ok = lower
+    match lower
         .iter()
         .zip(upper)
-        .all(|(l, u)| l.is_finite() && u.is_finite() && u > l);
-    if !box_ok {
-        return Err(NnError::NonFinite { layer: 0 });
+        .position(|(l, u)| !(l.is_finite() && u.is_finite() && u > l))
+    {
+        Some(i) => Err(NnError::Scaling {
+            field: "input_upper",
+            reason: format!(
+                "input {i}: the box [{}, {}] is not finite or is empty (each upper value must be above its input_lower)",
+                lower[i], upper[i]
+            ),
+        }),
+        None => Ok(()),
     }
-    Ok(())
 }

@@ -322,14 +322,13 @@ impl Env {
     /// Names of the observation entries: the outputs, `prev_<input>` per input, `step`, and
     /// the disturbances.
     pub fn observation_names(&self) -> Vec<String> {
-        let m = &self.plant.model;
-        m.outputs
-            .iter()
-            .map(|o| o.info.name.clone())
-            .chain(m.inputs.iter().map(|u| format!("prev_{}", u.info.name)))
-            .chain(std::iter::once("step".to_string()))
-            .chain(m.disturbances.iter().map(|d| d.info.name.clone()))
-            .collect()
+        observation_names(&self.plant.model)
+    }
+
+    /// Names of the action entries: the model's inputs, in order.
+    pub fn action_names(&self) -> Vec<String> {
+        let inputs = &self.plant.model.inputs;
+        inputs.iter().map(|u| u.info.name.clone()).collect()
     }
 
     /// The current observation `s(k)`.
@@ -463,4 +462,17 @@ pub fn input_from_action(
         let v = previous[i] + a.clamp(-1.0, 1.0) * scale[i];
         *u = v.clamp(lower[i], upper[i]);
     }
+}
+
+/// Names of the observation entries of an environment over `model`: the outputs,
+/// `prev_<input>` per input, `step`, and the disturbances.
+pub fn observation_names(model: &crate::lang::Model) -> Vec<String> {
+    model
+        .outputs
+        .iter()
+        .map(|o| o.info.name.clone())
+        .chain(model.inputs.iter().map(|u| format!("prev_{}", u.info.name)))
+        .chain(std::iter::once("step".to_string()))
+        .chain(model.disturbances.iter().map(|d| d.info.name.clone()))
+        .collect()
 }

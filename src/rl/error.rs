@@ -112,7 +112,16 @@ pub enum RlError {
     /// A sample was asked of a replay buffer holding no transition.
     #[error("the replay buffer is empty")]
     EmptyBuffer,
-    /// A checkpoint or policy file could not be written, read or used.
+    /// A policy file could not be written or read, or does not fit the model it is used
+    /// on; the reason names the field.
+    #[error("policy file {path}: {reason}")]
+    PolicyFile {
+        /// The file.
+        path: std::path::PathBuf,
+        /// What is wrong, naming the field.
+        reason: String,
+    },
+    /// A checkpoint could not be written, read or used.
     #[error("checkpoint {path}: {why}")]
     Checkpoint {
         /// The file or directory.

@@ -5,19 +5,31 @@
 //! numbers, so an optimiser can differentiate through it.
 
 use crate::graph::Real;
+use crate::lang::Model;
 use crate::nn::Mlp;
+use crate::report::atomic;
+use crate::rl::env::observation_names;
 use crate::rl::{Normalizer, RlError};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 /// A deterministic policy and its observation statistics. See the [module
 /// documentation](self).
+///
+/// Reading one from JSON checks that its parts fit each other: the actor's inputs, the
+/// statistics and the observation names have one width, the action names (where recorded)
+/// match the actor's outputs, and the evaluation reward is finite.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "PolicyData")]
 pub struct PolicyFile {
     /// The model it was trained on (the model file's `model` name).
     pub model: String,
     /// The observation's entries, in order (outputs, previous inputs, step, weather).
     pub observation_names: Vec<String>,
+    /// The model's inputs the actions set, in order (empty in files written before ghm
+    /// recorded them).
+    #[serde(default)]
+    pub action_names: Vec<String>,
     /// Frozen statistics for the observation.
     pub normalizer: Normalizer,
     /// Observation (standardised) → action in `[−1, 1]^nu` (tanh output).
@@ -26,6 +38,52 @@ pub struct PolicyFile {
     pub episode: usize,
     /// Its evaluation reward then, if it was evaluated.
     pub eval_reward: Option<f64>,
+}
+
+/// The serialised form of a [`PolicyFile`], checked on the way in.
+#[derive(Deserialize)]
+struct PolicyData {
+    model: String,
+    observation_names: Vec<String>,
+    #[serde(default)]
+    action_names: Vec<String>,
+    normalizer: Normalizer,
+    actor: Mlp,
+    episode: usize,
+    eval_reward: Option<f64>,
+}
+
+impl TryFrom<PolicyData> for PolicyFile {
+    type Error = String;
+    fn try_from(d: PolicyData) -> Result<PolicyFile, String> {
+        let width = d.normalizer.width();
+        if d.actor.inputs() != width || d.observation_names.len() != width {
+            return Err(format!(
+                "\"actor\" takes {} inputs, \"normalizer\" covers {width} and \"observation_names\" has {}; all three must agree",
+                d.actor.inputs(),
+                d.observation_names.len()
+            ));
+        }
+        if !d.action_names.is_empty() && d.action_names.len() != d.actor.outputs() {
+            return Err(format!(
+                "\"actor\" sets {} inputs but \"action_names\" has {}",
+                d.actor.outputs(),
+                d.action_names.len()
+            ));
+        }
+        if let Some(r) = d.eval_reward.filter(|r| !r.is_finite()) {
+            return Err(format!("\"eval_reward\" is {r}, not a finite number"));
+        }
+        Ok(PolicyFile {
+            model: d.model,
+            observation_names: d.observation_names,
+            action_names: d.action_names,
+            normalizer: d.normalizer,
+            actor: d.actor,
+            episode: d.episode,
+            eval_reward: d.eval_reward,
+        })
+    }
 }
 
 impl PolicyFile {
@@ -83,35 +141,56 @@ impl PolicyFile {
             .map_err(|e| RlError::Backend(e.to_string()))
     }
 
-    /// Writes the policy as JSON.
+    /// Writes the policy as JSON, atomically (see [`atomic`]).
     pub fn save(&self, path: &Path) -> Result<(), RlError> {
-        let fail = |why: String| RlError::Checkpoint {
-            path: path.display().to_string(),
-            why,
+        let fail = |reason: String| RlError::PolicyFile {
+            path: path.to_path_buf(),
+            reason,
         };
         let text = serde_json::to_string(self).map_err(|e| fail(e.to_string()))?;
-        std::fs::write(path, text).map_err(|e| fail(e.to_string()))
+        atomic::write(path, text).map_err(|e| fail(format!("cannot write: {e}")))
     }
 
-    /// Reads a policy written by [`PolicyFile::save`] and checks that its parts fit.
+    /// Reads a policy written by [`PolicyFile::save`] and checks that its parts fit; an
+    /// error names the file and the field.
     pub fn load(path: &Path) -> Result<PolicyFile, RlError> {
-        let fail = |why: String| RlError::Checkpoint {
-            path: path.display().to_string(),
-            why,
+        let fail = |reason: String| RlError::PolicyFile {
+            path: path.to_path_buf(),
+            reason,
         };
-        let text = std::fs::read_to_string(path).map_err(|e| fail(e.to_string()))?;
-        let policy: PolicyFile =
-            serde_json::from_str(&text).map_err(|e| fail(format!("not a policy file: {e}")))?;
-        if policy.actor.inputs() != policy.normalizer.width()
-            || policy.observation_names.len() != policy.normalizer.width()
-        {
+        let text = std::fs::read_to_string(path).map_err(|e| fail(format!("cannot read: {e}")))?;
+        serde_json::from_str(&text).map_err(|e| fail(format!("not a valid policy file: {e}")))
+    }
+
+    /// Checks that the policy was made for `model`'s observation and inputs (by name and
+    /// order; the action names only where the file records them). A policy trained on a
+    /// model of another name but with the same observation and inputs passes: the caller
+    /// may warn about the name.
+    pub fn check_fits(&self, model: &Model, path: &Path) -> Result<(), RlError> {
+        let fail = |reason: String| RlError::PolicyFile {
+            path: path.to_path_buf(),
+            reason,
+        };
+        let observation = observation_names(model);
+        if self.observation_names != observation {
             return Err(fail(format!(
-                "the actor takes {} inputs, the statistics cover {} and {} observation names are given",
-                policy.actor.inputs(),
-                policy.normalizer.width(),
-                policy.observation_names.len()
+                "\"observation_names\" are [{}]; model `{}` observes [{}]",
+                self.observation_names.join(", "),
+                model.name,
+                observation.join(", ")
             )));
         }
-        Ok(policy)
+        let inputs: Vec<&str> = model.inputs.iter().map(|u| u.info.name.as_str()).collect();
+        let recorded = !self.action_names.is_empty();
+        if self.actor.outputs() != inputs.len() || (recorded && self.action_names != inputs) {
+            return Err(fail(format!(
+                "the policy sets {} inputs [{}]; model `{}` has [{}]",
+                self.actor.outputs(),
+                self.action_names.join(", "),
+                model.name,
+                inputs.join(", ")
+            )));
+        }
+        Ok(())
     }
 }

@@ -1,6 +1,8 @@
 //! Helpers shared by the MPC tests that read the Venlo season in ../shared.
 #![allow(dead_code)]
 
+pub mod bin;
+
 use ghm::control::Mpc;
 use ghm::model::Plant;
 use ghm::nlp::Bands;

@@ -114,6 +114,12 @@ impl SacConfig {
         if self.episodes == 0 {
             return bad("episodes", "must be at least one");
         }
+        if self.warmup_episodes >= self.episodes {
+            return bad(
+                "warmup_episodes",
+                "must be fewer than the episodes: a training that is all random warm-up never learns",
+            );
+        }
         if !(self.tau > 0.0 && self.tau <= 1.0) {
             return bad("tau", "must lie in (0, 1]");
         }
@@ -549,6 +555,7 @@ impl Trainer {
         Ok(PolicyFile {
             model: model_name.to_string(),
             observation_names: self.env.observation_names(),
+            action_names: self.env.action_names(),
             normalizer,
             actor: mean_head,
             episode,

@@ -1,0 +1,144 @@
+//! Run folders that say what they are. A run claims its `--out` folder by writing
+//! `run.json` with `"status": "running"` before anything else, and rewrites it with
+//! `"status": "complete"` as the very last file; a run that fails rewrites it with
+//! `"failed"` and the error. A folder whose `run.json` still says `"running"` was killed
+//! (its `pid` says by whom it was held). See `docs/run-folders.md`.
+//!
+//! A folder that already holds the files of a run (this command's or another's) is
+//! refused unless `--overwrite` is given, which removes those files first, so that no
+//! stale file stays beside new ones. Files ghm does not write are never touched.
+
+use crate::cli::output::io_err;
+use crate::cli::CliError;
+use crate::report::atomic;
+use serde_json::json;
+use std::path::{Path, PathBuf};
+
+/// The files and folders ghm writes into a run folder, `run.json` first.
+const RUN_FILES: &[&str] = &[
+    "run.json",
+    "summary.json",
+    "trajectory.csv",
+    "trajectory.incomplete.csv",
+    "trajectory.png",
+    "learning_curve.csv",
+    "learning_curve.png",
+    "policy.json",
+    "value.json",
+    "value_curve.csv",
+    "value_curve.png",
+    "checkpoint",
+    "checkpoint.previous",
+    "checkpoint.partial",
+    "mpc",
+];
+
+/// A claimed run folder; see the [module documentation](self).
+#[derive(Debug)]
+pub struct RunFolder {
+    dir: PathBuf,
+}
+
+/// The run files in `dir`, by name (temporary files of atomic writes included).
+fn run_files(dir: &Path) -> Vec<String> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Vec::new();
+    };
+    let mut names: Vec<String> = entries
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| RUN_FILES.contains(&n.as_str()) || atomic::is_temporary(n))
+        .collect();
+    names.sort();
+    names
+}
+
+/// Refuses `dir` if it holds a run's files and `overwrite` is not given; does not write.
+/// For a command that computes long before it writes (`ghm optimum`).
+pub fn check(dir: &Path, overwrite: bool) -> Result<(), CliError> {
+    let found = run_files(dir);
+    if found.is_empty() || overwrite {
+        return Ok(());
+    }
+    let status = std::fs::read_to_string(dir.join("run.json"))
+        .ok()
+        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+        .and_then(|v| v["status"].as_str().map(String::from));
+    let what = match status.as_deref() {
+        Some("complete") => "the results of a complete run",
+        Some("failed") => "the files of a failed run",
+        Some(_) => "the files of an incomplete run (killed, or still running)",
+        None => "the results of an earlier run",
+    };
+    Err(CliError::Argument(format!(
+        "{} holds {what} ({}); pass --overwrite to replace them, or choose another --out",
+        dir.display(),
+        found.join(", ")
+    )))
+}
+
+impl RunFolder {
+    /// Claims `dir` for a new run: refused if it holds a run's files, unless `overwrite`
+    /// (which removes them first); creates it and writes `run.json` as running.
+    pub fn claim(dir: &Path, overwrite: bool) -> Result<RunFolder, CliError> {
+        check(dir, overwrite)?;
+        let found = run_files(dir);
+        if !found.is_empty() {
+            eprintln!("replacing the earlier run in {}", dir.display());
+        }
+        for name in found {
+            let path = dir.join(&name);
+            let removed = if path.is_dir() {
+                std::fs::remove_dir_all(&path)
+            } else {
+                std::fs::remove_file(&path)
+            };
+            removed.map_err(io_err(&path))?;
+        }
+        RunFolder::continue_in(dir)
+    }
+
+    /// Claims `dir` to continue the run in it (a resumed training), keeping its files.
+    pub fn continue_in(dir: &Path) -> Result<RunFolder, CliError> {
+        std::fs::create_dir_all(dir).map_err(io_err(dir))?;
+        let folder = RunFolder {
+            dir: dir.to_path_buf(),
+        };
+        folder.mark("running", None)?;
+        Ok(folder)
+    }
+
+    /// Marks the run complete: call it after the last result file is written.
+    pub fn complete(self) -> Result<(), CliError> {
+        self.mark("complete", None)
+    }
+
+    /// Ends the run with `result`: complete if it is `Ok`, otherwise failed with its
+    /// error (the error is returned as it was; a failure to mark it is only printed).
+    pub fn finish<T>(self, result: Result<T, CliError>) -> Result<T, CliError> {
+        match result {
+            Ok(value) => {
+                self.complete()?;
+                Ok(value)
+            }
+            Err(e) => {
+                if let Err(mark) = self.mark("failed", Some(&e.to_string())) {
+                    eprintln!("warning: {mark}");
+                }
+                Err(e)
+            }
+        }
+    }
+
+    fn mark(&self, status: &str, error: Option<&str>) -> Result<(), CliError> {
+        let path = self.dir.join("run.json");
+        let record = json!({
+            "status": status,
+            "command": std::env::args().collect::<Vec<_>>(),
+            "pid": std::process::id(),
+            "error": error,
+        });
+        let text = serde_json::to_string_pretty(&record).unwrap_or_default() + "\n";
+        atomic::write(&path, text).map_err(io_err(&path))
+    }
+}
