@@ -14,6 +14,7 @@ for solver in $solvers; do
       out=runs/bench/$variant-$solver-${h}h
       [ -f "$out/summary.json" ] && continue
       echo "== $variant $solver ${h}h"
+      rm -rf "$out.tmp"
       /usr/bin/time -f "%e" -o /tmp/ghm-bench-time "$ghm" mpc "models/$variant.ghm" "${weather[@]}" \
         --horizon "${h}h" --solver "$solver" --out "$out.tmp" > /dev/null
       cp /tmp/ghm-bench-time "$out.tmp/wall_s"
