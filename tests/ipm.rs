@@ -364,3 +364,56 @@ fn a_terminal_cost_set_between_solves_is_seen() {
     assert_eq!(again.stats.iterations, fresh.stats.iterations);
     assert_eq!(again.x, fresh.x);
 }
+
+/// The KKT residuals on a problem solved by hand: one step of the chain toward 3, whose
+/// control stops at its upper bound 1. By hand (∇f + Jᵀλ + ν = 0): x₁ = u₀ = 1, λ₀ = 4
+/// (from x₁: 2(1 − 3) + λ₀ = 0), ν_u = 3.8 (from u₀: 0.2 − λ₀ + ν_u = 0, positive at an
+/// upper bound), the unbounded row's λ₁ = 0. Each residual then moves by what a known
+/// change of the point makes it, and the interior point finds the hand solution.
+#[test]
+fn kkt_residuals_of_a_hand_solved_problem() {
+    let mut chain = Chain::new(1, 3.0);
+    let (u, x) = (chain.u(0), chain.x(1));
+    let mut point = vec![0.0; 2];
+    point[u] = 1.0;
+    point[x] = 1.0;
+    let lambda = [4.0, 0.0];
+    let mut nu = vec![0.0; 2];
+    nu[u] = 3.8;
+    let exact = kkt_residuals(&mut chain, &point, &lambda, &nu);
+    assert!(exact.max() <= 1e-14, "{exact:?}");
+    // λ₀ off by 0.1: both stationarity rows by 0.1.
+    let off = kkt_residuals(&mut chain, &point, &[4.1, 0.0], &nu);
+    assert!((off.stationarity - 0.1).abs() <= 1e-12, "{off:?}");
+    assert!(
+        off.primal <= 1e-14 && off.complementarity <= 1e-14,
+        "{off:?}"
+    );
+    // x₁ 0.2 off the dynamics: primal 0.2.
+    let mut moved = point.clone();
+    moved[x] = 1.2;
+    let infeasible = kkt_residuals(&mut chain, &moved, &lambda, &nu);
+    assert!((infeasible.primal - 0.2).abs() <= 1e-12, "{infeasible:?}");
+    // u₀ at 0.5, half its upper slack, with ν_u = 3.8: complementarity 3.8 × 0.5.
+    let mut inside = point.clone();
+    inside[u] = 0.5;
+    inside[x] = 0.5;
+    let slack = kkt_residuals(&mut chain, &inside, &lambda, &nu);
+    assert!((slack.complementarity - 1.9).abs() <= 1e-12, "{slack:?}");
+    // The interior point's solution is the hand one.
+    let sol = solve(&mut chain, IpmOptions::default(), None);
+    assert_eq!(sol.status, SolveStatus::Optimal);
+    for (got, want) in sol.x.iter().zip(&point) {
+        assert!((got - want).abs() <= 1e-6, "{:?}", sol.x);
+    }
+    assert!(
+        (sol.multipliers[0] - 4.0).abs() <= 1e-6,
+        "{:?}",
+        sol.multipliers
+    );
+    assert!(
+        (sol.bound_multipliers[u] - 3.8).abs() <= 1e-6,
+        "{:?}",
+        sol.bound_multipliers
+    );
+}
