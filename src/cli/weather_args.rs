@@ -4,7 +4,8 @@
 use crate::cli::CliError;
 use crate::lang::Model;
 use crate::sim::season::UncertaintyDraw;
-use crate::sim::weather::{builtin_season, load_csv, load_knmi, Weather, WeatherFrame};
+use crate::sim::weather::Weather;
+use crate::sim::weather_source::{season_weather, SourceError, WeatherSource};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -71,36 +72,24 @@ impl WeatherArgs {
 
     /// The weather for `steps` steps plus `extra` steps of forecast.
     pub fn load(&self, model: &Model, steps: usize, extra: usize) -> Result<Weather, CliError> {
-        let wanted = model.weather_columns();
-        let rows = steps + extra;
-        let frame: WeatherFrame = match (&self.weather, &self.knmi) {
-            (Some(path), _) => load_csv(path, &wanted, model.sample_period)?,
-            (None, Some(path)) => load_knmi(path, model.sample_period, self.knmi_co2)?,
-            (None, None) => {
-                if model.disturbances.iter().all(|d| d.value.is_some()) {
-                    let names = model
-                        .disturbances
-                        .iter()
-                        .map(|d| d.info.name.clone())
-                        .collect();
-                    let values: Vec<f64> =
-                        model.disturbances.iter().filter_map(|d| d.value).collect();
-                    return Ok(Weather::constant(names, &values, rows, model.sample_period));
-                }
-                builtin_season(
-                    self.start_row + rows,
-                    model.sample_period,
-                    self.weather_seed,
-                )
-            }
-        };
-        if (frame.period_s - model.sample_period).abs() > 1e-9 {
-            return Err(CliError::Argument(format!(
-                "the weather source has a period of {} s but the model steps every {} s",
-                frame.period_s, model.sample_period
-            )));
+        season_weather(model, &self.source(), self.start_row, steps + extra).map_err(|e| match e {
+            SourceError::Weather(e) => CliError::Weather(e),
+            period @ SourceError::Period { .. } => CliError::Argument(period.to_string()),
+        })
+    }
+
+    /// The weather source these options name.
+    pub fn source(&self) -> WeatherSource {
+        match (&self.weather, &self.knmi) {
+            (Some(path), _) => WeatherSource::Csv(path.clone()),
+            (None, Some(path)) => WeatherSource::Knmi {
+                path: path.clone(),
+                co2_ppm: self.knmi_co2,
+            },
+            (None, None) => WeatherSource::Builtin {
+                seed: self.weather_seed,
+            },
         }
-        Ok(frame.select(&wanted, self.start_row, rows)?)
     }
 
     /// A one-line description of the weather source for summaries.

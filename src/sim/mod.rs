@@ -5,3 +5,4 @@ pub mod optimum;
 pub mod season;
 pub mod value_data;
 pub mod weather;
+pub mod weather_source;

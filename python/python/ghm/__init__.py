@@ -1,0 +1,145 @@
+"""ghm from Python: any ``.ghm`` model as a Gymnasium environment.
+
+``ghm.Env`` is a :class:`gymnasium.Env` over ghm's Rust environment (the one ``ghm train``
+trains on): the same observation, action and reward, bit for bit.
+
+* observation ``[y(x(k)), u(k-1), k, d(k)]`` in model units (``float64``);
+* action in ``[-1, 1]`` per input, mapped to ``u(k) = clip(u(k-1) + a * du, lower, upper)``
+  (``du`` the input's rate limit, or its range);
+* reward: the model's economic reward of the step minus its soft-band penalties.
+
+The season ends after ``days`` days; the step index is part of the observation, so the
+end is part of the problem and is reported as ``terminated``.
+
+``ghm.VecEnv`` steps many environments of one model inside Rust with one call per batch;
+``ghm.load`` returns a model's declarations (names, units, bounds). A model that does not
+check raises :class:`ghm.ModelError` with ghm's diagnostics (file, line and column).
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any, Optional
+
+import gymnasium
+import numpy as np
+from gymnasium import spaces
+
+from . import _ghm
+from ._ghm import ModelError, load
+
+__all__ = ["Env", "VecEnv", "ModelError", "load"]
+
+
+def _path(value: Optional[os.PathLike | str]) -> Optional[str]:
+    return None if value is None else os.fspath(value)
+
+
+class Env(gymnasium.Env):
+    """A season of a ``.ghm`` model as a Gymnasium environment.
+
+    Parameters
+    ----------
+    model: path of the ``.ghm`` file.
+    weather: a weather CSV in the model's units (columns named as the model's
+        disturbances), or ``None`` for ghm's built-in Dutch late-winter season.
+    start_row: the weather row of step 0.
+    days: the season length (at the model's sample period).
+    uncertainty: relative spread of the model's uncertain parameters, drawn afresh each
+        episode (0: the nominal plant).
+    seed: seed of the parameter draws (``reset(seed=...)`` restarts them).
+    """
+
+    metadata = {"render_modes": []}
+
+    def __init__(
+        self,
+        model: os.PathLike | str,
+        weather: Optional[os.PathLike | str] = None,
+        start_row: int = 0,
+        days: float = 40.0,
+        uncertainty: float = 0.0,
+        seed: Optional[int] = None,
+    ):
+        self._raw = _ghm.RawEnv(
+            os.fspath(model),
+            weather=_path(weather),
+            start_row=start_row,
+            days=float(days),
+            uncertainty=float(uncertainty),
+            seed=0 if seed is None else int(seed),
+        )
+        self.observation_names = list(self._raw.observation_names)
+        self.action_names = list(self._raw.action_names)
+        self.observation_space = spaces.Box(
+            -np.inf, np.inf, shape=(len(self.observation_names),), dtype=np.float64
+        )
+        self.action_space = spaces.Box(
+            -1.0, 1.0, shape=(len(self.action_names),), dtype=np.float64
+        )
+        self.episode_len = self._raw.episode_len
+
+    def reset(self, *, seed: Optional[int] = None, options: Optional[dict] = None):
+        super().reset(seed=seed)
+        if seed is not None:
+            self._raw.reseed(int(seed))
+        observation = self._raw.reset()
+        return observation, {"step": 0}
+
+    def step(self, action):
+        action = np.asarray(action, dtype=np.float64).reshape(-1)
+        observation, reward, economic, done, applied = self._raw.step(action)
+        info: dict[str, Any] = {
+            "economic": economic,
+            "input": applied,
+            "step": self._raw.step_index,
+        }
+        return observation, reward, done, False, info
+
+    @property
+    def state(self) -> np.ndarray:
+        """The plant's state ``x(k)`` (model units)."""
+        return self._raw.state
+
+
+class VecEnv:
+    """``count`` environments of one model stepped together inside Rust.
+
+    ``step(actions)`` takes an array of shape ``(count, inputs)`` and returns
+    ``(observations, rewards, dones)``; an environment whose season ended is reset in the
+    same call (its row of ``observations`` is the new season's first). Environment ``i``
+    draws its parameters from ``seed + i``.
+    """
+
+    def __init__(
+        self,
+        model: os.PathLike | str,
+        count: int,
+        weather: Optional[os.PathLike | str] = None,
+        start_row: int = 0,
+        days: float = 40.0,
+        uncertainty: float = 0.0,
+        seed: int = 0,
+    ):
+        self._raw = _ghm.RawVecEnv(
+            os.fspath(model),
+            int(count),
+            weather=_path(weather),
+            start_row=start_row,
+            days=float(days),
+            uncertainty=float(uncertainty),
+            seed=int(seed),
+        )
+        self.count = self._raw.count
+
+    def reset(self, seed: Optional[int] = None) -> np.ndarray:
+        if seed is not None:
+            self._raw.reseed(int(seed))
+        return self._raw.reset()
+
+    def step(self, actions):
+        actions = np.ascontiguousarray(actions, dtype=np.float64)
+        return self._raw.step(actions)
+
+
+gymnasium.register(id="ghm/Model-v0", entry_point="ghm:Env")
