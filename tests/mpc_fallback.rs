@@ -1,15 +1,15 @@
-//! The MPC's fallback order, exercised with a solver that fails on purpose (built-in
-//! model, constant weather: no ../shared needed).
+//! The MPC's fallback order, exercised with a solver that fails on purpose, and its
+//! forecast padding (built-in model, constant weather: no ../shared needed).
 
-use ghm::control::{Controller, Mpc, Observation};
+use ghm::control::{ControlError, Controller, Guidance, Mpc, Observation};
 use ghm::model::Plant;
-use ghm::nlp::Nlp;
+use ghm::nlp::{Nlp, Ocp};
 use ghm::solve::{Solution, SolveStatus, Solver, Sqp, Start};
 use std::cell::RefCell;
 use std::collections::VecDeque;
 use std::path::Path;
 use std::rc::Rc;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 /// Runs SQP, then overrides the status with the next scripted one (`None`: keep it).
 struct Scripted {
@@ -128,4 +128,156 @@ fn failure_without_any_plan_holds_the_previous_input() {
     assert_eq!(log[0].0.as_deref(), Some("hold_input"));
     assert_eq!(log[0].1, plant.model.start_input());
     assert_eq!(log[0].2, "numerical_error");
+}
+
+/// A guidance that starts from the held input's roll-out, keeps every forecast it is given
+/// and offers `input` as the guide's own.
+struct Recording {
+    input: Option<Vec<f64>>,
+    forecasts: Arc<Mutex<Vec<Vec<f64>>>>,
+}
+
+impl Guidance for Recording {
+    fn name(&self) -> String {
+        "recording".into()
+    }
+
+    fn prepare(
+        &mut self,
+        ocp: &mut Ocp,
+        _observation: &Observation,
+        forecast: &[f64],
+        _previous: Option<&[f64]>,
+        start: &mut [f64],
+    ) -> Result<(), ControlError> {
+        self.forecasts.lock().unwrap().push(forecast.to_vec());
+        ocp.initial_point(start);
+        Ok(())
+    }
+
+    fn guide_input(&mut self, _observation: &Observation) -> Option<Vec<f64>> {
+        self.input.clone()
+    }
+
+    fn region_status(&self, _ocp: &Ocp, _x: &[f64]) -> Option<String> {
+        None
+    }
+}
+
+/// The decision at step 0 on `forecast` (rows of 4; the outputs need a weather row even
+/// when the forecast is empty).
+fn first_decision(
+    plant: &Plant,
+    mpc: &mut Mpc,
+    forecast: &[f64],
+) -> Result<ghm::control::Decision, ControlError> {
+    let p = plant.model.nominal_params();
+    let x = plant.model.initial_state();
+    let u = plant.model.start_input();
+    let now = forecast.get(..4).unwrap_or(&[20.0, 7e-4, 6.0, 0.006]);
+    let y = plant.outputs(&x, &u, now, &p);
+    mpc.decide(&Observation {
+        step: 0,
+        state: &x,
+        outputs: &y,
+        previous_input: &u,
+        forecast,
+    })
+}
+
+/// With no plan to shift (step 0, every solve failing), RL-guided MPC applies the guide's
+/// input, within the rate limits from the start input (0, 0, 50): (0.5, 2, 120) becomes
+/// (0.12, 0.75, 65). Without a guide's input it holds the start input.
+#[test]
+fn failure_without_a_plan_applies_the_guides_input_within_the_limits() {
+    let forecast: Vec<f64> = (0..8).flat_map(|_| [50.0, 7e-4, 8.0, 0.006]).collect();
+    for (offered, applied, path) in [
+        (
+            Some(vec![0.5, 2.0, 120.0]),
+            vec![0.12, 0.75, 65.0],
+            "guide_input",
+        ),
+        (None, vec![0.0, 0.0, 50.0], "hold_input"),
+    ] {
+        let failing = vec![Some(SolveStatus::NumericalError); 4];
+        let (plant, mpc) = setup(failing);
+        let mut mpc = mpc.with_guidance(Box::new(Recording {
+            input: offered,
+            forecasts: Arc::default(),
+        }));
+        let d = first_decision(&plant, &mut mpc, &forecast).unwrap();
+        assert_eq!(d.record.fallback.as_deref(), Some(path));
+        assert_eq!(d.record.status, "numerical_error");
+        assert_eq!(d.input, applied, "{path}");
+    }
+}
+
+/// After a successful step 0 on a 4-step horizon, failing steps apply the plan's inputs 1,
+/// 2 and 3 in turn (`shifted_plan`); at step 4 the plan is used up and the input is held.
+#[test]
+fn a_used_up_plan_gives_way_to_the_held_input() {
+    let mut script = vec![None];
+    script.extend(vec![Some(SolveStatus::MaxIterations); 10]);
+    let (plant, mut mpc) = setup(script);
+    let log = run(&plant, &mut mpc, 5);
+    assert_eq!(log[0].0, None);
+    let s = mpc.last_solution().expect("step 0 solved");
+    for (j, (fallback, input, status)) in log.iter().enumerate().skip(1) {
+        assert_eq!(status, "max_iterations", "step {j}");
+        if j < 4 {
+            assert_eq!(fallback.as_deref(), Some("shifted_plan"), "step {j}");
+            let planned = mpc.ocp().input(&s.x, j);
+            for (a, b) in input.iter().zip(planned) {
+                assert!(
+                    (a - b).abs() <= 1e-9,
+                    "step {j}: {input:?} vs plan {planned:?}"
+                );
+            }
+        } else {
+            assert_eq!(fallback.as_deref(), Some("hold_input"), "step {j}");
+            assert_eq!(input, &log[3].1, "step 4 holds step 3's input");
+        }
+    }
+}
+
+/// A forecast shorter than the horizon is padded by repeating its last row: the guidance
+/// sees rows (a, b, b, b) of a 2-row forecast (a, b), and the decision is bit for bit the
+/// one taken on that padded forecast given whole. A longer forecast is cut to the horizon;
+/// an empty one is refused.
+#[test]
+fn a_short_forecast_is_padded_with_its_last_row() {
+    let a = [20.0, 7e-4, 6.0, 0.006];
+    let b = [250.0, 8e-4, 12.0, 0.008];
+    let short: Vec<f64> = [a, b].concat();
+    let padded: Vec<f64> = [a, b, b, b].concat();
+    let long: Vec<f64> = [a, b, b, b, a, a].concat();
+    let forecasts = Arc::new(Mutex::new(Vec::new()));
+    let (plant, mpc) = setup(vec![]);
+    let mut guided = mpc.with_guidance(Box::new(Recording {
+        input: None,
+        forecasts: forecasts.clone(),
+    }));
+    first_decision(&plant, &mut guided, &short).unwrap();
+    first_decision(&plant, &mut guided, &long).unwrap();
+    assert_eq!(
+        *forecasts.lock().unwrap(),
+        vec![padded.clone(), padded.clone()]
+    );
+
+    let decide = |forecast: &[f64]| {
+        let (plant, mut mpc) = setup(vec![]);
+        first_decision(&plant, &mut mpc, forecast).unwrap().input
+    };
+    let on_padded = decide(&padded);
+    assert_eq!(decide(&short), on_padded);
+    assert_eq!(decide(&long), on_padded);
+    let on_first_row_repeated = decide(&[a, b, a, a].concat());
+    assert_ne!(
+        on_first_row_repeated, on_padded,
+        "the rows it pads with matter"
+    );
+
+    let (plant, mut mpc) = setup(vec![]);
+    let err = first_decision(&plant, &mut mpc, &[]).unwrap_err();
+    assert_eq!(err.to_string(), "the forecast is empty");
 }
