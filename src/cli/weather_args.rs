@@ -8,6 +8,11 @@ use crate::sim::weather::{builtin_season, load_csv, load_knmi, Weather, WeatherF
 use clap::Args;
 use std::path::PathBuf;
 
+/// The most steps a season may have (ten million: a year at a 3-second period). The
+/// weather and the step log grow with it, so a larger request is refused before anything
+/// is allocated.
+pub const MAX_SEASON_STEPS: usize = 10_000_000;
+
 /// Recorded in a training's `summary.json`, so that `ghm train --resume` continues on the
 /// same season.
 #[derive(Debug, Clone, PartialEq, Args, serde::Serialize, serde::Deserialize)]
@@ -28,10 +33,10 @@ pub struct WeatherArgs {
     /// Seed of the built-in weather generator.
     #[arg(long, value_name = "S", default_value_t = 2014)]
     pub weather_seed: u64,
-    /// Season length in days.
+    /// Season length in days (at most 10 000 000 steps).
     #[arg(long, value_name = "D", conflicts_with = "steps")]
     pub days: Option<f64>,
-    /// Season length in steps (default: 40 days).
+    /// Season length in steps (default: 40 days; at most 10 000 000).
     #[arg(long, value_name = "N")]
     pub steps: Option<usize>,
 }
@@ -53,18 +58,37 @@ impl WeatherArgs {
         self.weather.is_none() && self.knmi.is_none()
     }
 
-    /// Number of steps of the season.
+    /// Number of steps of the season, at least 1 and at most [`MAX_SEASON_STEPS`]; checked
+    /// before anything is allocated for it.
     pub fn steps(&self, model: &Model) -> Result<usize, CliError> {
         let per_day = 86400.0 / model.sample_period;
-        let steps = match (self.steps, self.days) {
-            (Some(n), _) => n as f64,
-            (None, Some(d)) => (d * per_day).round(),
-            (None, None) => (40.0 * per_day).round(),
+        let (steps, given) = match (self.steps, self.days) {
+            (Some(n), _) => (n as f64, format!("--steps {n} is {n} steps")),
+            (None, Some(d)) => (
+                (d * per_day).round(),
+                format!("--days {d:e} makes {:.3e} steps", (d * per_day).round()),
+            ),
+            (None, None) => (
+                (40.0 * per_day).round(),
+                "40 days make too many steps".into(),
+            ),
         };
         if !(steps >= 1.0 && steps.is_finite()) {
             return Err(CliError::Argument(
                 "the season must have at least one step (check --days / --steps)".into(),
             ));
+        }
+        if steps > MAX_SEASON_STEPS as f64 {
+            return Err(CliError::Argument(format!(
+                "{given} of {} s; a season has at most {MAX_SEASON_STEPS} steps",
+                model.sample_period
+            )));
+        }
+        if self.start_row > MAX_SEASON_STEPS {
+            return Err(CliError::Argument(format!(
+                "--start-row {}: the first row must be at most {MAX_SEASON_STEPS}",
+                self.start_row
+            )));
         }
         Ok(steps as usize)
     }
@@ -72,7 +96,9 @@ impl WeatherArgs {
     /// The weather for `steps` steps plus `extra` steps of forecast.
     pub fn load(&self, model: &Model, steps: usize, extra: usize) -> Result<Weather, CliError> {
         let wanted = model.weather_columns();
-        let rows = steps + extra;
+        let rows = steps.checked_add(extra).ok_or_else(|| {
+            CliError::Argument(format!("{steps} steps and {extra} more are too many rows"))
+        })?;
         let frame: WeatherFrame = match (&self.weather, &self.knmi) {
             (Some(path), _) => load_csv(path, &wanted, model.sample_period)?,
             (None, Some(path)) => load_knmi(path, model.sample_period, self.knmi_co2)?,
@@ -88,7 +114,7 @@ impl WeatherArgs {
                     return Ok(Weather::constant(names, &values, rows, model.sample_period));
                 }
                 builtin_season(
-                    self.start_row + rows,
+                    self.start_row.saturating_add(rows),
                     model.sample_period,
                     self.weather_seed,
                 )
