@@ -2,7 +2,7 @@
 
 use crate::cli::{load_model, CliError};
 use crate::graph::Sparsity;
-use crate::model::verify::verify_step_derivatives;
+use crate::model::verify::{verify_step_derivatives, Entry, NonFiniteEntry};
 use crate::model::Plant;
 use crate::sim::weather::builtin_season;
 use clap::Args;
@@ -17,10 +17,13 @@ pub struct CheckArgs {
     /// central finite differences at the initial point and at random points; fail above 1e-6.
     #[arg(long)]
     pub verify_derivatives: bool,
-    /// Number of random points for --verify-derivatives.
+    /// Number of random points for --verify-derivatives (at most 10 000).
     #[arg(long, default_value_t = 8)]
     pub points: usize,
 }
+
+/// The most random points `--verify-derivatives` checks.
+const MAX_POINTS: usize = 10_000;
 
 fn list<T>(items: &[T], f: impl Fn(&T) -> String) -> String {
     items.iter().map(f).collect::<Vec<_>>().join(", ")
@@ -110,18 +113,56 @@ pub fn run(args: &CheckArgs) -> Result<(), CliError> {
         wrt.len() * (wrt.len() + 1) / 2
     );
     if args.verify_derivatives {
+        if args.points > MAX_POINTS {
+            return Err(CliError::Argument(format!(
+                "--points {}: at most {MAX_POINTS} random points",
+                args.points
+            )));
+        }
         let points = sample_points(&plant, args.points);
         let r = verify_step_derivatives(&plant, &points);
+        if let Some(bad) = r.non_finite {
+            return Err(CliError::DerivativeNotFinite(describe_non_finite(
+                &plant, &bad,
+            )));
+        }
         println!(
             "  derivative check at {} points: Jacobian max rel. error {:.2e}, Hessian max rel. error {:.2e}",
             r.points, r.jacobian_max_rel_error, r.hessian_max_rel_error
         );
-        if r.max() > 1e-6 {
+        // NaN (a finite difference that was not finite) fails too.
+        if r.max().is_nan() || r.max() > 1e-6 {
             return Err(CliError::DerivativeCheck(r.max()));
         }
         println!("  derivatives OK (≤ 1e-6)");
     }
     Ok(())
+}
+
+/// "at the initial point, ∂(state `x` after the step)/∂(input `u`) is NaN; ...".
+fn describe_non_finite(plant: &Plant, bad: &NonFiniteEntry) -> String {
+    let out = |row| plant.describe(plant.step_quantity(row));
+    let what = match bad.entry {
+        Entry::Value { row } => format!("the value of {}", out(row)),
+        Entry::Jacobian { row, col } => {
+            format!("∂({}) / ∂({})", out(row), plant.describe_variable(col))
+        }
+        Entry::Hessian { row, col } => format!(
+            "a second derivative ∂² / ∂({}) ∂({}) of the step",
+            plant.describe_variable(row),
+            plant.describe_variable(col)
+        ),
+    };
+    let point = if bad.point == 0 {
+        "the initial state and start input".to_string()
+    } else {
+        format!("random point {} around the initial state", bad.point)
+    };
+    format!(
+        "at {point}, {what} is {}; the model is not defined or not differentiable there \
+         (a division by zero, log or sqrt of zero or a negative number, an overflow)",
+        bad.value
+    )
 }
 
 /// The initial point and random points around it, with weather from the built-in season

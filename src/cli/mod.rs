@@ -49,6 +49,14 @@ pub enum CliError {
     /// numerical ones; holds the largest relative error (Jacobian or Hessian), above 1e-6.
     #[error("derivative check failed: largest relative error {0:.3e} exceeds 1e-6")]
     DerivativeCheck(f64),
+    /// `ghm check --verify-derivatives`: a value or exact derivative of the step is NaN
+    /// or infinite at a point checked; the message names it.
+    #[error("derivative check failed: {0}")]
+    DerivativeNotFinite(String),
+    /// A season in which every solve failed: its files are written (with the message in
+    /// `summary.json`'s `warnings`), but the run counts as failed.
+    #[error("{0}")]
+    NoSolveSucceeded(String),
 }
 
 #[derive(Debug, Parser)]

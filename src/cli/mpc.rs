@@ -73,7 +73,7 @@ pub fn bands_name(bands: Bands) -> &'static str {
 pub struct MpcArgs {
     /// The model file (.ghm).
     pub file: PathBuf,
-    /// Prediction horizon: `3h`, `90min`, or a number of steps.
+    /// Prediction horizon: `3h`, `90min`, or a number of steps (at most 100 000).
     #[arg(long, value_name = "H", default_value = "3h")]
     pub horizon: String,
     /// NLP back-end.
@@ -120,8 +120,19 @@ pub fn parse_horizon(text: &str, sample_period_s: f64) -> Result<usize, CliError
     if steps < 1.0 || (steps * sample_period_s - seconds).abs() > 1e-6 * seconds {
         return Err(bad());
     }
+    if steps > MAX_HORIZON_STEPS as f64 {
+        return Err(CliError::Argument(format!(
+            "--horizon {text} is {steps:.3e} steps of {sample_period_s} s; a horizon has at most \
+             {MAX_HORIZON_STEPS} steps"
+        )));
+    }
     Ok(steps as usize)
 }
+
+/// The longest prediction horizon, in steps: each step of it is a stage of the NLP, with
+/// its own variables, constraints and derivative buffers, so a larger one is refused before
+/// anything is allocated.
+pub const MAX_HORIZON_STEPS: usize = 100_000;
 
 /// The chosen back-end, or a message saying how to get it.
 pub fn make_solver(choice: SolverChoice) -> Result<Box<dyn Solver>, CliError> {

@@ -278,3 +278,16 @@ pub fn plot_trajectory(
     };
     write_atomically(&dir.join("trajectory.png"), |path| draw_png(&fig, path))
 }
+
+/// A figure of money for the terminal: four decimals, or four significant digits in
+/// scientific notation from 1e9 on (a 300-digit EPI is unreadable, whatever caused it).
+///
+/// `signed` shows a `+` on positive figures.
+pub fn figure(v: f64, signed: bool) -> String {
+    match (v.abs() < 1e9, signed) {
+        (true, true) => format!("{v:+.4}"),
+        (true, false) => format!("{v:.4}"),
+        (false, true) => format!("{v:+.4e}"),
+        (false, false) => format!("{v:.4e}"),
+    }
+}

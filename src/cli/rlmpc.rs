@@ -6,6 +6,7 @@
 
 use crate::cli::guide::{guide_factory, shipped_dir, GuideChoice};
 use crate::cli::mpc::{bands_name, make_mpc, parse_horizon, BandsChoice, SolverChoice};
+use crate::cli::output::figure;
 use crate::cli::simulate::{run_season_and_report, SeasonArgs};
 use crate::cli::weather_args::{UncertaintyArgs, WeatherArgs};
 use crate::cli::{load_model, CliError};
@@ -215,15 +216,18 @@ pub fn run(args: &RlmpcArgs) -> Result<(), CliError> {
         println!();
         println!("at a {} horizon:", args.horizon);
         println!(
-            "  {:<22} EPI {:+.4} {unit}, cumulative reward {:+.4} {unit}, median solve {:.2} ms",
+            "  {:<22} EPI {} {unit}, cumulative reward {} {unit}, median solve {:.2} ms",
             controller_label(args),
-            guided.epi,
-            guided.cumulative_reward,
+            figure(guided.epi, true),
+            figure(guided.cumulative_reward, true),
             guided.solve.median_ms
         );
         println!(
-            "  {:<22} EPI {:+.4} {unit}, cumulative reward {:+.4} {unit}, median solve {:.2} ms",
-            "MPC", plain.epi, plain.cumulative_reward, plain.solve.median_ms
+            "  {:<22} EPI {} {unit}, cumulative reward {} {unit}, median solve {:.2} ms",
+            "MPC",
+            figure(plain.epi, true),
+            figure(plain.cumulative_reward, true),
+            plain.solve.median_ms
         );
     }
     Ok(())

@@ -1,6 +1,6 @@
 //! `ghm simulate`: a season with fixed inputs or inputs from a CSV file.
 
-use crate::cli::output::{model_hash, plot_trajectory, write_summary, TrajectoryWriter};
+use crate::cli::output::{figure, model_hash, plot_trajectory, write_summary, TrajectoryWriter};
 use crate::cli::run_folder::RunFolder;
 use crate::cli::weather_args::{UncertaintyArgs, WeatherArgs};
 use crate::cli::{load_model, CliError};
@@ -58,6 +58,18 @@ fn parse_inputs(spec: Option<&str>, plant: &Plant) -> Result<Box<dyn Controller>
                     .map(|u| u.info.name.as_str())
                     .collect::<Vec<_>>()
                     .join(", ")
+            )));
+        }
+        if let Some((u, v)) = plant
+            .model
+            .inputs
+            .iter()
+            .zip(&values)
+            .find(|(_, v)| !v.is_finite())
+        {
+            return Err(CliError::Argument(format!(
+                "--inputs const:{list}: the value of {} is {v}; every input must be a finite number",
+                u.info.name
             )));
         }
         return Ok(Box::new(ConstantInput(values)));
@@ -152,6 +164,7 @@ fn season_files(
         args.weather.describe(&plant.model)
     );
     print_metrics(m, &plant.model.objective_unit());
+    let no_solve = no_solve_succeeded(m, &writer.logs, args.out);
     let mut summary = json!({
         "command": std::env::args().collect::<Vec<_>>(),
         "model": args.file.display().to_string(),
@@ -161,6 +174,7 @@ fn season_files(
         "uncertainty": args.uncertainty.uncertainty,
         "seed": args.uncertainty.seed,
         "metrics": m,
+        "warnings": no_solve.iter().collect::<Vec<_>>(),
     });
     if let (Some(map), serde_json::Value::Object(more)) = (summary.as_object_mut(), extra) {
         map.extend(more);
@@ -176,20 +190,53 @@ fn season_files(
         "wrote {}/trajectory.csv, summary.json, trajectory.png",
         args.out.display()
     );
-    Ok(result.metrics)
+    match no_solve {
+        Some(message) => Err(CliError::NoSolveSucceeded(message)),
+        None => Ok(result.metrics),
+    }
+}
+
+/// A season in which every step's solve failed is not a season of the controller but of
+/// its fallback: the files are written (to see why), and the run fails with this message.
+fn no_solve_succeeded(
+    m: &crate::sim::metrics::Metrics,
+    logs: &[crate::sim::season::StepLog],
+    out: &Path,
+) -> Option<String> {
+    if m.steps == 0 || m.solve.failed_solves < m.steps {
+        return None;
+    }
+    let first = logs.first().map(|l| &l.record);
+    Some(format!(
+        "every one of the {} solves failed (the first with status `{}`); the inputs were the \
+         fallback's (`{}`), not the controller's, so these figures do not measure it. The \
+         status column of {}/trajectory.csv says how each solve ended",
+        m.steps,
+        first.map_or("", |r| r.status.as_str()),
+        first.and_then(|r| r.fallback.as_deref()).unwrap_or("none"),
+        out.display()
+    ))
 }
 
 /// Prints the season figures.
 pub fn print_metrics(m: &crate::sim::metrics::Metrics, unit: &str) {
-    println!("  EPI               {:+.4} {unit}", m.epi);
-    println!("  penalties         {:.4} {unit}", m.total_penalty);
+    println!("  EPI               {} {unit}", figure(m.epi, true));
+    println!(
+        "  penalties         {} {unit}",
+        figure(m.total_penalty, false)
+    );
     for b in &m.bands {
         println!(
-            "    {:<14} {:.4} {unit}, {:.1} h outside",
-            b.output, b.penalty, b.hours_outside
+            "    {:<14} {} {unit}, {:.1} h outside",
+            b.output,
+            figure(b.penalty, false),
+            b.hours_outside
         );
     }
-    println!("  cumulative reward {:+.4} {unit}", m.cumulative_reward);
+    println!(
+        "  cumulative reward {} {unit}",
+        figure(m.cumulative_reward, true)
+    );
     let s = &m.solve;
     if s.max_ms > 0.0 {
         println!(

@@ -9,6 +9,11 @@ use crate::sim::weather_source::{season_weather, SourceError, WeatherSource};
 use clap::Args;
 use std::path::PathBuf;
 
+/// The most steps a season may have (ten million: a year at a 3-second period). The
+/// weather and the step log grow with it, so a larger request is refused before anything
+/// is allocated.
+pub const MAX_SEASON_STEPS: usize = 10_000_000;
+
 /// Recorded in a training's `summary.json`, so that `ghm train --resume` continues on the
 /// same season.
 #[derive(Debug, Clone, PartialEq, Args, serde::Serialize, serde::Deserialize)]
@@ -29,10 +34,10 @@ pub struct WeatherArgs {
     /// Seed of the built-in weather generator.
     #[arg(long, value_name = "S", default_value_t = 2014)]
     pub weather_seed: u64,
-    /// Season length in days.
+    /// Season length in days (at most 10 000 000 steps).
     #[arg(long, value_name = "D", conflicts_with = "steps")]
     pub days: Option<f64>,
-    /// Season length in steps (default: 40 days).
+    /// Season length in steps (default: 40 days; at most 10 000 000).
     #[arg(long, value_name = "N")]
     pub steps: Option<usize>,
 }
@@ -54,25 +59,47 @@ impl WeatherArgs {
         self.weather.is_none() && self.knmi.is_none()
     }
 
-    /// Number of steps of the season.
+    /// Number of steps of the season, at least 1 and at most [`MAX_SEASON_STEPS`]; checked
+    /// before anything is allocated for it.
     pub fn steps(&self, model: &Model) -> Result<usize, CliError> {
         let per_day = 86400.0 / model.sample_period;
-        let steps = match (self.steps, self.days) {
-            (Some(n), _) => n as f64,
-            (None, Some(d)) => (d * per_day).round(),
-            (None, None) => (40.0 * per_day).round(),
+        let (steps, given) = match (self.steps, self.days) {
+            (Some(n), _) => (n as f64, format!("--steps {n} is {n} steps")),
+            (None, Some(d)) => (
+                (d * per_day).round(),
+                format!("--days {d:e} makes {:.3e} steps", (d * per_day).round()),
+            ),
+            (None, None) => (
+                (40.0 * per_day).round(),
+                "40 days make too many steps".into(),
+            ),
         };
         if !(steps >= 1.0 && steps.is_finite()) {
             return Err(CliError::Argument(
                 "the season must have at least one step (check --days / --steps)".into(),
             ));
         }
+        if steps > MAX_SEASON_STEPS as f64 {
+            return Err(CliError::Argument(format!(
+                "{given} of {} s; a season has at most {MAX_SEASON_STEPS} steps",
+                model.sample_period
+            )));
+        }
+        if self.start_row > MAX_SEASON_STEPS {
+            return Err(CliError::Argument(format!(
+                "--start-row {}: the first row must be at most {MAX_SEASON_STEPS}",
+                self.start_row
+            )));
+        }
         Ok(steps as usize)
     }
 
     /// The weather for `steps` steps plus `extra` steps of forecast.
     pub fn load(&self, model: &Model, steps: usize, extra: usize) -> Result<Weather, CliError> {
-        season_weather(model, &self.source(), self.start_row, steps + extra).map_err(|e| match e {
+        let rows = steps.checked_add(extra).ok_or_else(|| {
+            CliError::Argument(format!("{steps} steps and {extra} more are too many rows"))
+        })?;
+        season_weather(model, &self.source(), self.start_row, rows).map_err(|e| match e {
             SourceError::Weather(e) => CliError::Weather(e),
             period @ SourceError::Period { .. } => CliError::Argument(period.to_string()),
         })

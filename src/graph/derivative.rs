@@ -38,6 +38,7 @@ pub struct Derivatives {
     inputs: Vec<Lane>,
     ws: Workspace<Lane>,
     adjoint: Vec<Lane>,
+    live: Vec<bool>,
 }
 
 fn lane(d: &Lane, l: usize) -> f64 {
@@ -59,6 +60,7 @@ impl Derivatives {
             inputs: vec![Lane::from(0.0); tape.n_inputs],
             ws: tape.workspace::<Lane>(),
             adjoint: vec![Lane::from(0.0); tape.n_slots],
+            live: vec![false; tape.n_slots],
         }
     }
 
@@ -114,7 +116,7 @@ impl Derivatives {
         let n = self.wrt.len();
         for chunk in 0..self.chunks() {
             let cols = self.forward(tape, x, chunk);
-            reverse_sweep(tape, &self.ws, weights, &mut self.adjoint);
+            reverse_sweep(tape, &self.ws, weights, &mut self.adjoint, &mut self.live);
             for (k, &i) in self.wrt.iter().enumerate() {
                 let a = &self.adjoint[i];
                 self.result.gradient[k] = a.re;
@@ -129,24 +131,45 @@ impl Derivatives {
 
 /// Accumulates adjoints `∂(Σ wᵢ outᵢ)/∂slot` over `T`, from the values left in `ws` by a
 /// forward run.
+///
+/// Only slots that reach an output of non-zero weight through the branches taken are
+/// visited (`live`, one flag per slot): the untaken branch of an `if`, `min` or `max`
+/// ([`Op::passed_on`]) and everything only it uses get no adjoint at all. Multiplying their zero adjoint by their
+/// partials would not be zero where the branch is not defined (`sqrt(-1)`: 0 · NaN = NaN),
+/// and `if(x > 0, x, sqrt(-x - 1))` would poison every derivative with the branch it does
+/// not take. The forward pass needs no such care: `Select` passes on the taken dual whole.
 pub(crate) fn reverse_sweep<T: Real>(
     tape: &Tape,
     ws: &Workspace<T>,
     weights: &[f64],
     adjoint: &mut [T],
+    live: &mut [bool],
 ) {
     for a in adjoint.iter_mut() {
         *a = T::zero();
     }
+    live.fill(false);
     for (&s, &w) in tape.outputs.iter().zip(weights) {
         adjoint[s as usize] += T::from(w);
+        live[s as usize] |= w != 0.0;
     }
     let v = &ws.slots;
     for ins in tape.instrs.iter().rev() {
-        // No skipping on `g == 0`: duals compare by real part only, and a zero real part
-        // can carry non-zero second-order lanes.
+        if !live[ins.out as usize] {
+            continue;
+        }
+        // No skipping on `g == 0` beyond `live`: duals compare by real part only, and a
+        // zero real part can carry non-zero second-order lanes.
         let g = adjoint[ins.out as usize];
         let [a, b, c] = ins.args;
+        let (va, vb, vc) = (v[a as usize].re(), v[b as usize].re(), v[c as usize].re());
+        if let Some(k) = ins.op.passed_on(va, vb, vc) {
+            // ∂/∂taken = 1; nothing else (an `if`'s condition is piecewise constant).
+            let taken = ins.args[k] as usize;
+            adjoint[taken] += g;
+            live[taken] = true;
+            continue;
+        }
         let p = ins.op.partials(
             v[a as usize],
             v[b as usize],
@@ -155,11 +178,14 @@ pub(crate) fn reverse_sweep<T: Real>(
         );
         let arity = ins.op.arity();
         adjoint[a as usize] += g * p[0];
+        live[a as usize] = true;
         if arity > 1 {
             adjoint[b as usize] += g * p[1];
+            live[b as usize] = true;
         }
         if arity > 2 {
             adjoint[c as usize] += g * p[2];
+            live[c as usize] = true;
         }
     }
 }
@@ -183,7 +209,8 @@ pub fn gradient_f64(tape: &Tape, x: &[f64], weights: &[f64]) -> Vec<f64> {
     ws.slots[..tape.n_inputs].copy_from_slice(x);
     tape.run(&mut ws);
     let mut adjoint = vec![0.0; tape.n_slots];
-    reverse_sweep(tape, &ws, weights, &mut adjoint);
+    let mut live = vec![false; tape.n_slots];
+    reverse_sweep(tape, &ws, weights, &mut adjoint, &mut live);
     adjoint.truncate(tape.n_inputs);
     adjoint
 }

@@ -167,6 +167,30 @@ impl Op {
         }
     }
 
+    /// The argument the op passes on whole at `(a, b, c)`, for the ops that choose one
+    /// (`if`, `min`, `max`): the same comparison as [`Op::apply`]. `None` for the others.
+    /// The reverse sweep gives an adjoint to that argument only, so the argument not taken
+    /// never meets its partials (which need not be defined there).
+    ///
+    /// ```
+    /// use ghm::graph::Op;
+    ///
+    /// assert_eq!(Op::Select.passed_on(1.0, 5.0, f64::NAN), Some(1));
+    /// assert_eq!(Op::Select.passed_on(0.0, 5.0, 7.0), Some(2));
+    /// assert_eq!(Op::Max.passed_on(0.0, f64::NAN, 0.0), Some(0)); // max(0, NaN) = 0
+    /// assert_eq!(Op::Min.passed_on(3.0, 2.0, 0.0), Some(1));
+    /// assert_eq!(Op::Add.passed_on(1.0, 2.0, 0.0), None);
+    /// ```
+    #[inline]
+    pub fn passed_on(self, a: f64, b: f64, _c: f64) -> Option<usize> {
+        match self {
+            Op::Select => Some(if a > 0.5 { 1 } else { 2 }),
+            Op::Min => Some(if b < a { 1 } else { 0 }),
+            Op::Max => Some(if b > a { 1 } else { 0 }),
+            _ => None,
+        }
+    }
+
     /// The value on plain floats.
     #[inline]
     pub fn apply_f64(self, a: f64, b: f64, c: f64) -> f64 {

@@ -7,7 +7,7 @@
 use crate::graph::{Graph, NodeId};
 use crate::lang::ast::{ParamKind, TermKind};
 use crate::lang::diagnostic::Diagnostic;
-use crate::lang::source::SourceMap;
+use crate::lang::source::{SourceMap, Span};
 
 /// Unit, description and source of a declaration, for people.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -20,6 +20,9 @@ pub struct Info {
     pub description: String,
     /// The reference of `source "..."` (parameters only; `""` when none was written).
     pub source: String,
+    /// Where the name is declared (`None` for a model made with
+    /// [`ModelBuilder`](crate::model::ModelBuilder)); [`Model::location`] gives `file:line:col`.
+    pub span: Option<Span>,
 }
 
 /// A `state`: its name, unit and description, and its initial value.
@@ -306,6 +309,11 @@ impl Model {
             .map(|t| t.info.unit.trim().to_string())
             .filter(|u| u != "-")
             .unwrap_or_default()
+    }
+
+    /// `file:line:col` of a declaration, if it was read from a file.
+    pub fn location(&self, info: &Info) -> Option<String> {
+        info.span.map(|s| self.sources.location(s))
     }
 
     /// The position of the output named `name`, if there is one.

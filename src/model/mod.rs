@@ -10,6 +10,7 @@
 //! language's [`Model`] and the graph.
 
 mod builder;
+pub mod finite;
 mod penalty;
 pub mod verify;
 
@@ -382,7 +383,8 @@ impl Plant {
             .map(|b| StagePenalty {
                 output: b.output,
                 value: band_penalty(b, y[b.output]),
-                outside: y[b.output] < b.lower || y[b.output] > b.upper,
+                // NaN is outside every band.
+                outside: !(y[b.output] >= b.lower && y[b.output] <= b.upper),
             })
             .collect()
     }

@@ -13,7 +13,9 @@ pub struct StagePenalty {
     pub outside: bool,
 }
 
-/// `w⁻·max(0, lo − y) + w⁺·max(0, y − hi)` with the band's scoring bounds.
+/// `w⁻·max(0, lo − y) + w⁺·max(0, y − hi)` with the band's scoring bounds; NaN when `y`
+/// is NaN (a number that is not one is never inside a band, and its penalty is unknown:
+/// `f64::max` alone would call it 0).
 ///
 /// ```
 /// use ghm::lang::model::SoftBand;
@@ -36,8 +38,12 @@ pub struct StagePenalty {
 /// assert_eq!(band_penalty(&band, 21.0), 5.0);
 /// let ceiling = SoftBand { lower: f64::NEG_INFINITY, ..band };
 /// assert_eq!(band_penalty(&ceiling, -1e9), 0.0);
+/// assert!(band_penalty(&ceiling, f64::NAN).is_nan());
 /// ```
 pub fn band_penalty(band: &SoftBand, y: f64) -> f64 {
+    if y.is_nan() {
+        return f64::NAN;
+    }
     let below = if band.lower.is_finite() {
         (band.lower - y).max(0.0)
     } else {

@@ -5,7 +5,44 @@
 use crate::graph::Derivatives;
 use crate::model::Plant;
 
-/// The largest relative errors found.
+/// Where a number of the check is NaN or infinite: rows are the step tape's outputs
+/// `(x⁺, stage terms, y(x⁺))` (see [`Plant::step_quantity`](crate::model::Plant::step_quantity)), columns the variables
+/// `(x, u)` differentiated against (see [`Plant::describe_variable`](crate::model::Plant::describe_variable)).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Entry {
+    /// The value of output `row`.
+    Value {
+        /// The step tape output.
+        row: usize,
+    },
+    /// `∂ row / ∂ col` of the exact Jacobian.
+    Jacobian {
+        /// The step tape output.
+        row: usize,
+        /// The variable.
+        col: usize,
+    },
+    /// `∂² (Σ wᵢ outᵢ) / ∂ row ∂ col` of the exact Hessian of a weighted sum of the outputs.
+    Hessian {
+        /// The first variable.
+        row: usize,
+        /// The second variable.
+        col: usize,
+    },
+}
+
+/// The first non-finite value or exact derivative the check met.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NonFiniteEntry {
+    /// The base point, an index into the points checked.
+    pub point: usize,
+    /// Which number.
+    pub entry: Entry,
+    /// Its value: NaN, `inf` or `-inf`.
+    pub value: f64,
+}
+
+/// The largest relative errors found, and the first number that was not finite.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct VerifyReport {
     /// Base points checked.
@@ -16,13 +53,45 @@ pub struct VerifyReport {
     /// Largest relative error of a Hessian entry of the weighted step outputs against
     /// central differences of the exact gradient, over all points.
     pub hessian_max_rel_error: f64,
+    /// The first value, Jacobian or Hessian entry that is NaN or infinite: the derivatives
+    /// cannot be right there, whatever the errors say.
+    pub non_finite: Option<NonFiniteEntry>,
 }
 
 impl VerifyReport {
-    /// The larger of the two errors.
+    /// The larger of the two errors; NaN when a comparison was NaN, infinite when a value
+    /// or derivative was not finite (so that `max() <= tolerance` is a complete test).
     pub fn max(&self) -> f64 {
-        self.jacobian_max_rel_error.max(self.hessian_max_rel_error)
+        if self.non_finite.is_some() {
+            return f64::INFINITY;
+        }
+        worse(self.jacobian_max_rel_error, self.hessian_max_rel_error)
     }
+}
+
+/// The larger of two errors, NaN if either is (`f64::max` would drop it).
+fn worse(a: f64, b: f64) -> f64 {
+    if a.is_nan() || b.is_nan() {
+        f64::NAN
+    } else {
+        a.max(b)
+    }
+}
+
+/// The first non-finite number of one base point's exact evaluation.
+fn first_non_finite(values: &[f64], jac: &[f64], hess: &[f64], n: usize) -> Option<(Entry, f64)> {
+    let bad = |v: &f64| !v.is_finite();
+    if let Some(row) = values.iter().position(bad) {
+        return Some((Entry::Value { row }, values[row]));
+    }
+    if let Some(k) = jac.iter().position(bad) {
+        let (row, col) = (k / n, k % n);
+        return Some((Entry::Jacobian { row, col }, jac[k]));
+    }
+    hess.iter().position(bad).map(|k| {
+        let (row, col) = (k / n, k % n);
+        (Entry::Hessian { row, col }, hess[k])
+    })
 }
 
 /// Error of `a` against `b`, relative to the larger of `|b|` and a floor tied to the scale
@@ -32,6 +101,9 @@ fn rel_err(a: f64, b: f64, scale: f64) -> f64 {
 }
 
 /// Checks the step's derivatives with respect to `(x, u)` at each base point `(x, u, d, p)`.
+/// Stops at the first point whose value or exact derivatives are not all finite, and says
+/// which number it was in [`VerifyReport::non_finite`]; a finite difference that is not
+/// finite (a point near the edge of the model's domain) makes the error NaN.
 ///
 /// ```
 /// # fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -85,9 +157,17 @@ pub fn verify_step_derivatives(plant: &Plant, points: &[Vec<f64>]) -> VerifyRepo
         }))
         .map(|t| if t > 0.0 { t } else { 1.0 })
         .collect();
-    for z in points {
+    for (point, z) in points.iter().enumerate() {
         let exact = der.hessian(tape, z, &weights).clone();
         let (jac, hess) = (&exact.jacobian, &exact.hessian);
+        if let Some((entry, value)) = first_non_finite(&exact.values, jac, hess, n) {
+            report.non_finite = Some(NonFiniteEntry {
+                point,
+                entry,
+                value,
+            });
+            return report;
+        }
         let mut fd_jac = vec![0.0; m * n];
         let mut fd_hess = vec![0.0; n * n];
         for (col, &i) in wrt.iter().enumerate() {
@@ -113,13 +193,13 @@ pub fn verify_step_derivatives(plant: &Plant, points: &[Vec<f64>]) -> VerifyRepo
             let scale = row.iter().fold(0.0f64, |a, b| a.max(b.abs()));
             for c in 0..n {
                 let e = rel_err(row[c], fd_jac[r * n + c], scale);
-                report.jacobian_max_rel_error = report.jacobian_max_rel_error.max(e);
+                report.jacobian_max_rel_error = worse(report.jacobian_max_rel_error, e);
             }
         }
         let scale = hess.iter().fold(0.0f64, |a, b| a.max(b.abs()));
         for k in 0..n * n {
             let e = rel_err(hess[k], fd_hess[k], scale);
-            report.hessian_max_rel_error = report.hessian_max_rel_error.max(e);
+            report.hessian_max_rel_error = worse(report.hessian_max_rel_error, e);
         }
     }
     report

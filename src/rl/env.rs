@@ -27,6 +27,7 @@
 //! plant's tape workspace) is kept in the environment.
 
 use crate::lang::model::Redraw;
+use crate::model::finite::{first_non_finite, Quantity};
 use crate::model::{Plant, StepOutcome, StepWorkspace};
 use crate::rl::RlError;
 use crate::sim::season::{draw_params_into, UncertaintyDraw};
@@ -246,15 +247,20 @@ impl Env {
             &self.params,
             &mut self.out,
         );
-        if self.out.next_state.iter().any(|v| !v.is_finite()) {
+        let economic = self.out.economic();
+        let reward = self.plant.step_reward(&self.out);
+        let found = first_non_finite(&self.out.next_state, Quantity::State)
+            .or_else(|| first_non_finite(&self.out.terms, Quantity::Term))
+            .or_else(|| first_non_finite(&self.out.next_outputs, Quantity::NextOutput))
+            .or_else(|| first_non_finite(&[reward], |_| Quantity::Reward));
+        if let Some((q, value)) = found {
             self.phase = Phase::Over;
             return Err(RlError::Diverged {
                 step: self.k,
-                state: self.out.next_state.clone(),
+                quantity: self.plant.describe(q),
+                value,
             });
         }
-        let economic = self.out.economic();
-        let reward = self.plant.step_reward(&self.out);
         self.state.copy_from_slice(&self.out.next_state);
         self.previous_input.copy_from_slice(&self.input);
         self.k += 1;

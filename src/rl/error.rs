@@ -85,13 +85,17 @@ pub enum RlError {
         /// Steps the episode took.
         steps: usize,
     },
-    /// The plant's next state has a NaN or infinite entry; the episode is over.
-    #[error("the state is not finite after step {step}: {state:?}")]
+    /// The plant's next state, a stage term, an output after the step or the reward is
+    /// NaN or infinite; the episode is over.
+    #[error("step {step}: {quantity} is {value}; the episode is over")]
     Diverged {
         /// The step that produced it (0-based).
         step: usize,
-        /// The non-finite next state.
-        state: Vec<f64>,
+        /// What it is, named as the model names it (see
+        /// [`Plant::describe`](crate::model::Plant::describe)).
+        quantity: String,
+        /// The value: NaN, `inf` or `-inf`.
+        value: f64,
     },
     /// An observation of the wrong length for a normaliser, a buffer or a policy.
     #[error("the observation has {given} entries; the normaliser expects {expected}")]

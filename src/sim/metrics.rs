@@ -167,7 +167,8 @@ impl MetricsBuilder {
             b.1 += penalties[i];
             let y = next_outputs[b.0];
             let (lo, hi) = self.band_lo_hi[i];
-            if y < lo || y > hi {
+            // NaN is outside every band.
+            if !(y >= lo && y <= hi) {
                 b.2 += self.period_h;
             }
         }

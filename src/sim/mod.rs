@@ -2,6 +2,7 @@
 //! the roll-outs behind the value function of RL-guided MPC.
 pub mod metrics;
 pub mod optimum;
+pub mod physical;
 pub mod season;
 pub mod value_data;
 pub mod weather;

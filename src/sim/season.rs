@@ -4,6 +4,7 @@
 
 use crate::control::{Controller, Observation, StepRecord};
 use crate::lang::model::Redraw;
+use crate::model::finite::{first_non_finite, Quantity};
 use crate::model::{Plant, StepOutcome};
 use crate::sim::metrics::{Metrics, MetricsBuilder};
 use crate::sim::weather::Weather;
@@ -47,13 +48,19 @@ pub enum SimError {
         /// Its error.
         source: crate::control::ControlError,
     },
-    /// The plant's next state has a NaN or infinite entry.
-    #[error("the state is not finite after step {step}: {state:?}")]
-    Diverged {
-        /// The step that produced it (0-based).
+    /// A number of the step is NaN or infinite: an observed output, the controller's
+    /// input, the next state, a stage term, an output after the step, a penalty, the
+    /// reward or the cumulative reward (checked in that order; the first one stops the
+    /// season, before the step is logged).
+    #[error("step {step}: {quantity} is {value}; the season stops here")]
+    NotFinite {
+        /// The step (0-based).
         step: usize,
-        /// The non-finite next state.
-        state: Vec<f64>,
+        /// What it is, named as the model names it, with its `file:line:col` when the
+        /// model was read from a file (see [`Plant::describe`]).
+        quantity: String,
+        /// The value: NaN, `inf` or `-inf`.
+        value: f64,
     },
     /// The [`StepSink`] failed; holds its message.
     #[error("writing the results failed: {0}")]
@@ -399,6 +406,15 @@ pub fn run_season(
             previous_input: &u_prev,
             forecast,
         };
+        let not_finite = |found: Option<(Quantity, f64)>| match found {
+            Some((q, value)) => Err(SimError::NotFinite {
+                step: k,
+                quantity: plant.describe(q),
+                value,
+            }),
+            None => Ok(()),
+        };
+        not_finite(first_non_finite(&y, Quantity::Output))?;
         let decision = controller
             .decide(&obs)
             .map_err(|source| SimError::Controller { step: k, source })?;
@@ -409,24 +425,27 @@ pub fn run_season(
                 expected: l.nu,
             });
         }
+        not_finite(first_non_finite(&u, Quantity::Input))?;
         if config.enforce_limits {
             plant.apply_limits(&u_prev, &mut u);
         }
         plant.step_into(&mut ws, &x, &u, d, &params, &mut out);
-        if out.next_state.iter().any(|v| !v.is_finite()) {
-            return Err(SimError::Diverged {
-                step: k,
-                state: out.next_state.clone(),
-            });
-        }
+        not_finite(first_non_finite(&out.next_state, Quantity::State))?;
+        not_finite(first_non_finite(&out.terms, Quantity::Term))?;
+        not_finite(first_non_finite(&out.next_outputs, Quantity::NextOutput))?;
         let penalties: Vec<f64> = plant
             .penalties(&out.next_outputs)
             .iter()
             .map(|p| p.value)
             .collect();
+        not_finite(first_non_finite(&penalties, Quantity::Penalty))?;
         let economic = out.economic();
         let reward = economic - penalties.iter().sum::<f64>();
+        not_finite(first_non_finite(&[reward], |_| Quantity::Reward))?;
         cumulative += reward;
+        not_finite(first_non_finite(&[cumulative], |_| {
+            Quantity::CumulativeReward
+        }))?;
         metrics.add(economic, &penalties, &out.next_outputs, &decision.record);
         let log = StepLog {
             step: k,

@@ -57,7 +57,7 @@ pub fn nominal_run(
     })
 }
 
-/// One roll-out's points: `(x_i, k)` pairs and the returns-to-go; `None` if it diverged.
+/// One roll-out's points: `(x_i, k)` pairs and the returns-to-go; `None` if its state or a reward stopped being finite.
 type Rollout = Option<(Vec<f64>, Vec<f64>)>;
 
 /// Settings of the value data.
@@ -83,7 +83,7 @@ pub struct ValueData {
     pub returns: Vec<f64>,
     /// Roll-outs kept.
     pub trajectories: usize,
-    /// Roll-outs dropped because their state diverged.
+    /// Roll-outs dropped because their state or a reward stopped being finite.
     pub dropped: usize,
 }
 
@@ -173,7 +173,7 @@ pub fn sample_returns(
     Ok(data)
 }
 
-/// One roll-out; `None` when its state diverged.
+/// One roll-out; `None` when its state or a reward stopped being finite.
 fn one_rollout(
     plant: &Plant,
     weather: &Weather,
@@ -221,11 +221,12 @@ fn one_rollout(
         let mut u = decision.input;
         plant.apply_limits(&u_prev, &mut u);
         plant.step_into(&mut ws, &x, &u, d, &params, &mut out);
-        if out.next_state.iter().any(|v| !v.is_finite()) {
+        let reward = plant.step_reward(&out);
+        if out.next_state.iter().any(|v| !v.is_finite()) || !reward.is_finite() {
             return Ok(None);
         }
         features.extend([x[config.state_index], k as f64]);
-        rewards.push(plant.step_reward(&out));
+        rewards.push(reward);
         x.clone_from(&out.next_state);
         u_prev = u;
     }

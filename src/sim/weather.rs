@@ -40,6 +40,7 @@
 //! # }
 //! ```
 
+use crate::sim::physical::range_of;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::{PI, TAU};
@@ -112,6 +113,36 @@ pub enum WeatherError {
         row: u64,
         /// The column.
         column: String,
+    },
+    /// A value outside the physical range of its column (see [`crate::sim::physical`]).
+    #[error("{}: line {row}, column `{column}`: {value} {unit} is outside the physical range [{lower}, {upper}] {unit}; check the sign and the unit of that column", path.display())]
+    OutOfRange {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line number.
+        row: u64,
+        /// The column.
+        column: String,
+        /// The value found.
+        value: f64,
+        /// The range's lower end.
+        lower: f64,
+        /// The range's upper end.
+        upper: f64,
+        /// The column's unit.
+        unit: &'static str,
+    },
+    /// The header names a column twice: which one is meant cannot be known.
+    #[error("{}: line 1: the header has column `{column}` twice (columns {first} and {second}); remove or rename one", path.display())]
+    DuplicateColumn {
+        /// The file.
+        path: PathBuf,
+        /// The column name.
+        column: String,
+        /// 1-based position of its first occurrence.
+        first: usize,
+        /// 1-based position of its second occurrence.
+        second: usize,
     },
     /// The time axis is not evenly spaced: the step ending at line `row` differs from the first step.
     #[error("{}: line {row}: time step is {found_step_s} s but {expected_step_s} s was expected; the time axis must be evenly spaced and increasing, so resample the file or remove the gap", path.display())]
@@ -406,7 +437,18 @@ impl Weather {
 fn parse_cell(path: &Path, row: u64, column: &str, text: &str) -> Result<f64, WeatherError> {
     let (path, column) = (path.to_path_buf(), column.to_string());
     match text.trim().parse::<f64>() {
-        Ok(v) if v.is_finite() => Ok(v),
+        Ok(v) if v.is_finite() => match range_of(&column) {
+            Some(r) if !r.contains(v) => Err(WeatherError::OutOfRange {
+                path,
+                row,
+                column,
+                value: v,
+                lower: r.lower,
+                upper: r.upper,
+                unit: r.unit,
+            }),
+            _ => Ok(v),
+        },
         Ok(_) => Err(WeatherError::NotFinite { path, row, column }),
         Err(_) => Err(WeatherError::NotNumeric {
             path,
@@ -482,16 +524,42 @@ pub fn load_csv(
         path: path.to_path_buf(),
         source,
     };
-    let file = std::fs::File::open(path).map_err(io)?;
+    let bytes = std::fs::read(path).map_err(io)?;
+    // Line numbers from byte offsets: with CRLF line endings the reader's own count is one
+    // short, and a record's offset can be the `\n` of the line before it.
+    let newlines: Vec<usize> = bytes
+        .iter()
+        .enumerate()
+        .filter_map(|(i, &b)| (b == b'\n').then_some(i))
+        .collect();
+    let line_at = |byte: u64| {
+        let start = (byte as usize).min(bytes.len());
+        let text = bytes[start..]
+            .iter()
+            .position(|&b| b != b'\r' && b != b'\n')
+            .map_or(bytes.len(), |i| start + i);
+        newlines.partition_point(|&n| n < text) as u64 + 1
+    };
     let mut rdr = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
-        .from_reader(std::io::BufReader::new(file));
+        .from_reader(&bytes[..]);
     let header: Vec<String> = rdr
         .headers()
         .map_err(csv_err)?
         .iter()
         .map(str::to_string)
         .collect();
+    let mut seen = std::collections::HashMap::with_capacity(header.len());
+    for (second, h) in header.iter().enumerate() {
+        if let Some(first) = seen.insert(h.as_str(), second) {
+            return Err(WeatherError::DuplicateColumn {
+                path: path.to_path_buf(),
+                column: h.clone(),
+                first: first + 1,
+                second: second + 1,
+            });
+        }
+    }
     let mut columns: Vec<String> = Vec::new();
     let requested = if needed_columns.is_empty() {
         &header[..]
@@ -508,7 +576,7 @@ pub fn load_csv(
     let (mut data, mut times) = (Vec::new(), Vec::new());
     for rec in rdr.records() {
         let rec = rec.map_err(csv_err)?;
-        let line = rec.position().map_or(0, |p| p.line());
+        let line = rec.position().map_or(0, |p| line_at(p.byte()));
         for (c, &i) in columns.iter().zip(&idx) {
             data.push(parse_cell(path, line, c, rec.get(i).unwrap_or(""))?);
         }

@@ -68,7 +68,7 @@ pub fn season_weather(
                 let values: Vec<f64> = model.disturbances.iter().filter_map(|d| d.value).collect();
                 return Ok(Weather::constant(names, &values, rows, model.sample_period));
             }
-            builtin_season(start_row + rows, model.sample_period, *seed)
+            builtin_season(start_row.saturating_add(rows), model.sample_period, *seed)
         }
     };
     if (frame.period_s - model.sample_period).abs() > 1e-9 {

@@ -109,6 +109,7 @@ fn info(name: &Name, doc: &Doc) -> Info {
         unit: doc.unit.clone().unwrap_or_default(),
         description: doc.description.clone().unwrap_or_default(),
         source: doc.source.clone().unwrap_or_default(),
+        span: Some(name.span),
     }
 }
 
