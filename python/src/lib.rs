@@ -133,7 +133,13 @@ impl RawEnv {
         &mut self,
         py: Python<'py>,
         action: PyReadonlyArray1<'py, f64>,
-    ) -> PyResult<(Bound<'py, PyArray1<f64>>, f64, f64, bool, Bound<'py, PyArray1<f64>>)> {
+    ) -> PyResult<(
+        Bound<'py, PyArray1<f64>>,
+        f64,
+        f64,
+        bool,
+        Bound<'py, PyArray1<f64>>,
+    )> {
         let action = action.as_slice()?;
         let t = self.env.step(action).map_err(rl_error)?;
         Ok((
@@ -280,9 +286,8 @@ impl RawVecEnv {
                 observations.extend_from_slice(env.observation());
             }
         }
-        let observations =
-            numpy::ndarray::Array2::from_shape_vec((n, self.obs_len), observations)
-                .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let observations = numpy::ndarray::Array2::from_shape_vec((n, self.obs_len), observations)
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
         Ok((
             observations.into_pyarray(py),
             rewards.into_pyarray(py),

@@ -36,7 +36,9 @@ pub enum SourceError {
     #[error(transparent)]
     Weather(#[from] WeatherError),
     /// The source's rows are not at the model's sample period.
-    #[error("the weather source has a period of {source_s} s but the model steps every {model_s} s")]
+    #[error(
+        "the weather source has a period of {source_s} s but the model steps every {model_s} s"
+    )]
     Period {
         /// The source's period, in seconds.
         source_s: f64,
