@@ -16,7 +16,7 @@ use pyo3::create_exception;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 create_exception!(
@@ -27,7 +27,7 @@ create_exception!(
 );
 
 /// Loads and checks a model, its diagnostics rendered into the exception's message.
-fn load_plant(path: &PathBuf) -> PyResult<Arc<Plant>> {
+fn load_plant(path: &Path) -> PyResult<Arc<Plant>> {
     let model = ghm::lang::load(path).map_err(|e| ModelError::new_err(e.render()))?;
     Ok(Arc::new(Plant::new(model)))
 }
@@ -44,7 +44,7 @@ fn rl_error(e: RlError) -> PyErr {
 fn season_steps(plant: &Plant, days: f64) -> PyResult<usize> {
     let steps = (days * 86400.0 / plant.model.sample_period).round();
     // A season is at most a few years of steps: refuse anything that could not be allocated.
-    if !(steps >= 1.0 && steps <= 1e7) {
+    if !(1.0..=1e7).contains(&steps) {
         return Err(PyValueError::new_err(format!(
             "days = {days} gives {steps} steps of {} s; a season needs 1 to 10 000 000 steps",
             plant.model.sample_period
