@@ -9,7 +9,7 @@
 
 use ghm::model::Plant;
 use ghm::rl::{Env, RlError};
-use ghm::sim::season::UncertaintyDraw;
+use ghm::sim::season::{UncertaintyDraw, MAX_SEASON_STEPS};
 use ghm::sim::weather_source::{season_weather, WeatherSource};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::create_exception;
@@ -43,19 +43,20 @@ fn rl_error(e: RlError) -> PyErr {
 /// The season length in steps of `days` days of `plant`'s sample period.
 fn season_steps(plant: &Plant, days: f64) -> PyResult<usize> {
     let steps = (days * 86400.0 / plant.model.sample_period).round();
-    // A season is at most a few years of steps: refuse anything that could not be allocated.
-    if !(1.0..=1e7).contains(&steps) {
+    // Refused before anything is allocated, with the command line's limit.
+    if !(1.0..=MAX_SEASON_STEPS as f64).contains(&steps) {
         return Err(PyValueError::new_err(format!(
-            "days = {days} gives {steps} steps of {} s; a season needs 1 to 10 000 000 steps",
+            "days = {days} gives {steps} steps of {} s; a season needs 1 to {MAX_SEASON_STEPS} steps",
             plant.model.sample_period
         )));
     }
     Ok(steps as usize)
 }
 
-/// One environment built from the Python arguments (shared by `RawEnv` and `RawVecEnv`).
+/// One environment of the model at `model`, built from the Python arguments (shared by
+/// `RawEnv` and `RawVecEnv`).
 fn build_env(
-    plant: &Arc<Plant>,
+    model: &Path,
     weather: Option<PathBuf>,
     start_row: usize,
     days: f64,
@@ -68,7 +69,8 @@ fn build_env(
             "uncertainty = {uncertainty}: the relative parameter spread must be in [0, 1)"
         )));
     }
-    let steps = season_steps(plant, days)?;
+    let plant = load_plant(model)?;
+    let steps = season_steps(&plant, days)?;
     let source = match weather {
         Some(path) => WeatherSource::Csv(path),
         None => WeatherSource::Builtin { seed: weather_seed },
@@ -79,7 +81,7 @@ fn build_env(
         delta: uncertainty,
         seed,
     });
-    let mut env = Env::new(plant.clone(), weather, steps, draw).map_err(rl_error)?;
+    let mut env = Env::new(plant, weather, steps, draw).map_err(rl_error)?;
     env.reseed(seed);
     Ok(env)
 }
@@ -103,9 +105,8 @@ impl RawEnv {
         seed: u64,
         weather_seed: u64,
     ) -> PyResult<RawEnv> {
-        let plant = load_plant(&model)?;
         let env = build_env(
-            &plant,
+            &model,
             weather,
             start_row,
             days,
@@ -207,9 +208,8 @@ impl RawVecEnv {
                 "count = {count}: a vector of environments holds 1 to 65 536"
             )));
         }
-        let plant = load_plant(&model)?;
         let first = build_env(
-            &plant,
+            &model,
             weather,
             start_row,
             days,

@@ -3,16 +3,11 @@
 
 use crate::cli::CliError;
 use crate::lang::Model;
-use crate::sim::season::UncertaintyDraw;
+use crate::sim::season::{UncertaintyDraw, MAX_SEASON_STEPS};
 use crate::sim::weather::Weather;
 use crate::sim::weather_source::{season_weather, SourceError, WeatherSource};
 use clap::Args;
 use std::path::PathBuf;
-
-/// The most steps a season may have (ten million: a year at a 3-second period). The
-/// weather and the step log grow with it, so a larger request is refused before anything
-/// is allocated.
-pub const MAX_SEASON_STEPS: usize = 10_000_000;
 
 /// Recorded in a training's `summary.json`, so that `ghm train --resume` continues on the
 /// same season.

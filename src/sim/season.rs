@@ -67,6 +67,11 @@ pub enum SimError {
     Sink(String),
 }
 
+/// The most steps a season may have (ten million: a year at a 3-second period). The
+/// weather and the step log grow with it, so a larger request is refused before anything
+/// is allocated.
+pub const MAX_SEASON_STEPS: usize = 10_000_000;
+
 /// Parametric uncertainty of a season: relative half-width δ and a seed.
 ///
 /// # Examples
