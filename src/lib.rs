@@ -31,6 +31,7 @@
 pub mod cli;
 pub mod control;
 pub mod graph;
+pub mod job;
 pub mod lang;
 pub mod model;
 pub mod nlp;
@@ -39,3 +40,4 @@ pub mod report;
 pub mod rl;
 pub mod sim;
 pub mod solve;
+pub mod study;

@@ -1,7 +1,8 @@
 //! `ghm check`: parse, check, summarise, and optionally verify derivatives.
 
-use crate::cli::{load_model, CliError};
+use crate::cli::CliError;
 use crate::graph::Sparsity;
+use crate::job::load_model;
 use crate::model::verify::{verify_step_derivatives, Entry, NonFiniteEntry};
 use crate::model::Plant;
 use crate::sim::weather::builtin_season;

@@ -3,48 +3,38 @@
 //! panics on user input.
 
 mod check;
-mod guide;
 mod mpc;
 mod optimum;
-mod output;
 mod policy;
+mod report;
 mod rlmpc;
-mod run_folder;
 mod simulate;
+mod study;
 mod train;
 mod value;
-mod weather_args;
 
+use crate::job::JobError;
 use clap::{Parser, Subcommand};
-use std::path::PathBuf;
 use thiserror::Error;
 
 /// Errors of the command line, each printed as one clear message.
 #[derive(Debug, Error)]
 pub enum CliError {
-    /// The model file has errors; the rendered diagnostics are the message.
-    #[error("{0}")]
-    Model(String),
-    /// The weather file could not be read, or does not fit the model.
-    #[error("{0}")]
-    Weather(#[from] crate::sim::weather::WeatherError),
+    /// A job (a season, its model, weather, controller or run folder) could not run or
+    /// failed; see [`JobError`].
+    #[error(transparent)]
+    Job(#[from] JobError),
+    /// A study could not be planned or run, or some of its jobs failed.
+    #[error(transparent)]
+    Study(#[from] crate::study::StudyError),
     /// A season stopped: the weather does not cover it or fit the model, the controller
     /// failed, the state diverged, or the step log could not be written.
     #[error("{0}")]
     Simulation(#[from] crate::sim::season::SimError),
     /// A command-line value that is out of range or does not fit the model, or an error of
-    /// a controller, the trainer or a value fit; the message says which.
+    /// the trainer or a value fit; the message says which.
     #[error("{0}")]
     Argument(String),
-    /// An output folder or file (summary, plot, learning curve, ...) could not be created
-    /// or written.
-    #[error("cannot write {path}: {message}")]
-    Output {
-        /// The file or folder that could not be written.
-        path: PathBuf,
-        /// Why, as the I/O or encoding error says it.
-        message: String,
-    },
     /// `ghm check --verify-derivatives`: the exact derivatives of the step differ from the
     /// numerical ones; holds the largest relative error (Jacobian or Hessian), above 1e-6.
     #[error("derivative check failed: largest relative error {0:.3e} exceeds 1e-6")]
@@ -53,10 +43,6 @@ pub enum CliError {
     /// or infinite at a point checked; the message names it.
     #[error("derivative check failed: {0}")]
     DerivativeNotFinite(String),
-    /// A season in which every solve failed: its files are written (with the message in
-    /// `summary.json`'s `warnings`), but the run counts as failed.
-    #[error("{0}")]
-    NoSolveSucceeded(String),
 }
 
 #[derive(Debug, Parser)]
@@ -91,6 +77,11 @@ enum Command {
     Value(value::ValueArgs),
     /// Run a season of RL-guided MPC (learned terminal cost, terminal region, guide warm start).
     Rlmpc(rlmpc::RlmpcArgs),
+    /// Run every season of a study file (controllers × horizons × scenarios), in parallel
+    /// and resumable.
+    Study(study::StudyArgs),
+    /// Tables and figures of study folders (runs or shards), merged.
+    Report(report::ReportArgs),
 }
 
 /// Runs the command line; returns the process exit code.
@@ -105,40 +96,18 @@ pub fn main() -> i32 {
         Command::Policy(a) => policy::run(&a),
         Command::Value(a) => value::run(&a),
         Command::Rlmpc(a) => rlmpc::run(&a),
+        Command::Study(a) => study::run(&a),
+        Command::Report(a) => report::run(&a),
     };
     match result {
         Ok(()) => 0,
-        Err(CliError::Model(text)) => {
+        Err(CliError::Job(JobError::Model(text))) => {
             eprint!("{text}");
             1
         }
         Err(e) => {
             eprintln!("error: {e}");
             1
-        }
-    }
-}
-
-/// Loads and checks a model, printing its warnings; errors become [`CliError::Model`].
-pub(crate) fn load_model(path: &std::path::Path) -> Result<crate::lang::Model, CliError> {
-    match crate::lang::load(path) {
-        Ok(m) => {
-            if !m.warnings.is_empty() {
-                eprint!(
-                    "{}",
-                    crate::lang::diagnostic::render(&m.sources, &m.warnings)
-                );
-            }
-            Ok(m)
-        }
-        Err(f) => {
-            let n = f.error_count();
-            Err(CliError::Model(format!(
-                "{}error: {} has {n} error{}; nothing was run\n",
-                f.render(),
-                path.display(),
-                if n == 1 { "" } else { "s" }
-            )))
         }
     }
 }

@@ -4,38 +4,14 @@
 //! uses the agent and value network shipped for the model under `models/agents/`.
 //! `--compare` also runs plain MPC at the same horizon and prints both.
 
-use crate::cli::guide::{guide_factory, shipped_dir, GuideChoice};
-use crate::cli::mpc::{bands_name, make_mpc, parse_horizon, BandsChoice, SolverChoice};
-use crate::cli::output::figure;
-use crate::cli::simulate::{run_season_and_report, SeasonArgs};
-use crate::cli::weather_args::{UncertaintyArgs, WeatherArgs};
-use crate::cli::{load_model, CliError};
-use crate::control::{RlGuidance, RlMpcOptions, TerminalCostForm, ValueFile};
-use crate::model::Plant;
-use clap::{Args, ValueEnum};
-use serde_json::json;
-use std::path::{Path, PathBuf};
-use std::sync::Arc;
-
-/// With or without the terminal region.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum Variant {
-    /// Terminal cost, terminal region and guide warm start (the paper's RL-MPC).
-    Rlmpc,
-    /// Value function only: no terminal region (the paper's RL-MPC-VFO).
-    Vfo,
-}
-
-/// The terminal cost's form.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum CostForm {
-    /// −V with its exact gradient and Hessian.
-    Exact,
-    /// −V's first-order expansion around the guess's terminal state (the paper's code).
-    Taylor,
-    /// No terminal cost (guide warm start and region only).
-    None,
-}
+use crate::cli::CliError;
+use crate::job::output::figure;
+use crate::job::{
+    run_season_job, BandsChoice, ControllerSpec, CostForm, GuideChoice, JobOptions, MpcSpec,
+    PlantSpec, RlmpcSpec, RunSpec, SolverChoice, Variant, WeatherSpec,
+};
+use clap::Args;
+use std::path::PathBuf;
 
 #[derive(Debug, Args)]
 pub struct RlmpcArgs {
@@ -68,9 +44,9 @@ pub struct RlmpcArgs {
     #[arg(long, value_enum, default_value_t = BandsChoice::Auto)]
     pub bands: BandsChoice,
     #[command(flatten)]
-    pub weather: WeatherArgs,
+    pub weather: WeatherSpec,
     #[command(flatten)]
-    pub plant: UncertaintyArgs,
+    pub plant: PlantSpec,
     /// Also run plain MPC at the same horizon (into OUT/mpc) and print both.
     #[arg(long)]
     pub compare: bool,
@@ -82,161 +58,50 @@ pub struct RlmpcArgs {
     pub overwrite: bool,
 }
 
-/// The value file of `--value`, or the shipped one for the guide.
-fn resolve_value(args: &RlmpcArgs, plant: &Plant) -> Result<ValueFile, CliError> {
-    let path = match &args.value {
-        Some(p) if p.is_dir() => p.join("value.json"),
-        Some(p) => p.clone(),
-        None => {
-            shipped_dir(&args.file, &args.weather).join(format!("value-{}.json", args.guide.name()))
-        }
-    };
-    if !path.is_file() {
-        return Err(CliError::Argument(format!(
-            "no value network at {}: fit one with `ghm value{}` and pass --value DIR",
-            path.display(),
-            if args.guide == GuideChoice::Expert {
-                " --guide expert"
-            } else {
-                ""
-            }
-        )));
-    }
-    let value = ValueFile::load(&path).map_err(|e| CliError::Argument(e.to_string()))?;
-    check_value_fits(&value, &path, &plant.model)?;
-    Ok(value)
-}
-
-/// Refuses a value network that reads another state than the one its file names in this
-/// model; warns when it was fitted on a model of another name.
-fn check_value_fits(
-    value: &ValueFile,
-    path: &Path,
-    model: &crate::lang::Model,
-) -> Result<(), CliError> {
-    let state = model.states.get(value.state_index).map(|s| &s.info.name);
-    if state != Some(&value.state_name) {
-        return Err(CliError::Argument(format!(
-            "value file {}: \"state_index\" {} is {} in model `{}`, but the network was fitted on state `{}` (\"state_name\"); fit one for this model with `ghm value`",
-            path.display(),
-            value.state_index,
-            state.map_or("no state".to_string(), |s| format!("`{s}`")),
-            model.name,
-            value.state_name
-        )));
-    }
-    if value.model != model.name {
-        eprintln!(
-            "warning: the value network was fitted on model `{}`, this is `{}`",
-            value.model, model.name
-        );
-    }
-    Ok(())
-}
-
 pub fn run(args: &RlmpcArgs) -> Result<(), CliError> {
-    let model = load_model(&args.file)?;
-    let plant = Arc::new(Plant::new(model));
-    let horizon = parse_horizon(&args.horizon, plant.model.sample_period)?;
-    let make_guide = guide_factory(
-        &plant,
-        args.guide,
-        &args.file,
-        &args.weather,
-        args.agent.as_deref(),
-    )?;
-    let value = match args.terminal_cost {
-        CostForm::None => None,
-        _ => Some(resolve_value(args, &plant)?),
+    let rlmpc = RlmpcSpec {
+        horizon: args.horizon.clone(),
+        solver: args.solver,
+        bands: args.bands,
+        guide: args.guide,
+        agent: args.agent.clone(),
+        value: args.value.clone(),
+        variant: args.variant,
+        epsilon: args.epsilon,
+        terminal_cost: args.terminal_cost,
     };
-    if let Some(v) = &value {
-        if v.guide != args.guide.name() {
-            eprintln!(
-                "warning: the value network learned the {} guide's returns; the guide is {}",
-                v.guide,
-                args.guide.name()
+    let spec = |controller| RunSpec {
+        model: args.file.clone(),
+        weather: args.weather.clone(),
+        plant: args.plant.clone(),
+        controller,
+    };
+    let options = JobOptions {
+        overwrite: args.overwrite,
+        verbose: true,
+    };
+    let label = rlmpc.label();
+    let plain = ControllerSpec::Mpc(MpcSpec {
+        horizon: args.horizon.clone(),
+        solver: args.solver,
+        bands: args.bands,
+    });
+    let guided = run_season_job(&spec(ControllerSpec::Rlmpc(rlmpc)), &args.out, &options)?;
+    if args.compare {
+        println!();
+        let plain = run_season_job(&spec(plain), &args.out.join("mpc"), &options)?;
+        let unit = &guided.unit;
+        println!();
+        println!("at a {} horizon:", args.horizon);
+        for (name, m) in [(label.as_str(), &guided.metrics), ("MPC", &plain.metrics)] {
+            println!(
+                "  {:<22} EPI {} {unit}, cumulative reward {} {unit}, median solve {:.2} ms",
+                name,
+                figure(m.epi, true),
+                figure(m.cumulative_reward, true),
+                m.solve.median_ms
             );
         }
     }
-    let options = RlMpcOptions {
-        epsilon: (args.variant == Variant::Rlmpc).then_some(args.epsilon),
-        terminal_cost: match args.terminal_cost {
-            CostForm::Taylor => TerminalCostForm::Taylor,
-            _ => TerminalCostForm::Exact,
-        },
-    };
-    let guidance = RlGuidance::new(
-        plant.clone(),
-        make_guide(),
-        args.guide.name(),
-        value,
-        options,
-    )
-    .map_err(|e| CliError::Argument(e.to_string()))?;
-    let bands = args.bands.resolve(&args.plant);
-    let mut controller =
-        make_mpc(&plant, horizon, args.solver, bands)?.with_guidance(Box::new(guidance));
-    let extra = json!({
-        "horizon_steps": horizon,
-        "horizon_h": horizon as f64 * plant.model.sample_period / 3600.0,
-        "guide": args.guide.name(),
-        "variant": format!("{:?}", args.variant).to_lowercase(),
-        "epsilon": args.epsilon,
-        "terminal_cost": format!("{:?}", args.terminal_cost).to_lowercase(),
-        "bands": bands_name(bands),
-    });
-    fn season<'a>(args: &'a RlmpcArgs, out: &'a Path, horizon: usize) -> SeasonArgs<'a> {
-        SeasonArgs {
-            file: &args.file,
-            weather: &args.weather,
-            uncertainty: &args.plant,
-            out,
-            overwrite: args.overwrite,
-            enforce_limits: true,
-            forecast: horizon,
-        }
-    }
-    let guided = run_season_and_report(
-        &season(args, &args.out, horizon),
-        &plant,
-        &mut controller,
-        extra,
-    )?;
-    if args.compare {
-        let mpc_dir = args.out.join("mpc");
-        let mut mpc = make_mpc(&plant, horizon, args.solver, bands)?;
-        println!();
-        let plain = run_season_and_report(
-            &season(args, &mpc_dir, horizon),
-            &plant,
-            &mut mpc,
-            json!({ "horizon_steps": horizon, "bands": bands_name(bands) }),
-        )?;
-        let unit = plant.model.objective_unit();
-        println!();
-        println!("at a {} horizon:", args.horizon);
-        println!(
-            "  {:<22} EPI {} {unit}, cumulative reward {} {unit}, median solve {:.2} ms",
-            controller_label(args),
-            figure(guided.epi, true),
-            figure(guided.cumulative_reward, true),
-            guided.solve.median_ms
-        );
-        println!(
-            "  {:<22} EPI {} {unit}, cumulative reward {} {unit}, median solve {:.2} ms",
-            "MPC",
-            figure(plain.epi, true),
-            figure(plain.cumulative_reward, true),
-            plain.solve.median_ms
-        );
-    }
     Ok(())
-}
-
-fn controller_label(args: &RlmpcArgs) -> String {
-    let variant = match args.variant {
-        Variant::Rlmpc => "RL-MPC",
-        Variant::Vfo => "RL-MPC-VFO",
-    };
-    format!("{variant} ({})", args.guide.name())
 }

@@ -7,10 +7,9 @@
 //! `ghm policy` and RL-guided MPC load), `summary.json` (which records the season, so
 //! that `--resume` continues on it) and `run.json` (complete only once every episode ran).
 
-use crate::cli::output::{model_hash, progress_bar, write_atomically, write_summary};
-use crate::cli::run_folder::RunFolder;
-use crate::cli::weather_args::WeatherArgs;
-use crate::cli::{load_model, CliError};
+use crate::cli::CliError;
+use crate::job::output::{model_hash, progress_bar, write_atomically, write_summary};
+use crate::job::{load_model, RunFolder, WeatherSpec};
 use crate::model::Plant;
 use crate::report::plot::{draw_xy, Line};
 use crate::rl::sac::{checkpoint, EpisodeRecord, SacConfig, StepProgress, Trainer};
@@ -27,7 +26,7 @@ pub struct TrainArgs {
     /// The model file (.ghm).
     pub file: PathBuf,
     #[command(flatten)]
-    pub weather: WeatherArgs,
+    pub weather: WeatherSpec,
     /// Episodes in all (each one season), the random warm-up included [default: 100].
     #[arg(long, value_name = "N")]
     pub episodes: Option<usize>,
@@ -63,7 +62,7 @@ pub struct TrainArgs {
 /// What a training runs on, from the arguments or, resumed, from its folder.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 struct Season {
-    weather_args: WeatherArgs,
+    weather_args: WeatherSpec,
     stochastic: bool,
     uncertainty: f64,
     seed: u64,
@@ -144,7 +143,7 @@ pub fn run(args: &TrainArgs) -> Result<(), CliError> {
                 )));
             }
             let trainer = Trainer::new(env, config).map_err(rl)?;
-            (RunFolder::claim(&args.out, args.overwrite)?, trainer)
+            (RunFolder::claim(&args.out, args.overwrite, None)?, trainer)
         }
     };
     let meta = json!({
@@ -382,7 +381,7 @@ fn save(
             json!(curve.iter().filter(|r| r.diverged).count()),
         );
     }
-    write_summary(dir, &summary)
+    Ok(write_summary(dir, &summary)?)
 }
 
 /// `learning_curve.csv` and `learning_curve.png`.
@@ -422,7 +421,7 @@ fn write_curve(dir: &Path, curve: &[EpisodeRecord]) -> Result<(), CliError> {
             .map(|r| r.eval_reward.unwrap_or(f64::NAN))
             .collect(),
     };
-    write_atomically(&dir.join("learning_curve.png"), |path| {
+    Ok(write_atomically(&dir.join("learning_curve.png"), |path| {
         draw_xy(
             "SAC learning curve",
             "episode",
@@ -431,5 +430,5 @@ fn write_curve(dir: &Path, curve: &[EpisodeRecord]) -> Result<(), CliError> {
             &[training, evaluation],
             path,
         )
-    })
+    })?)
 }

@@ -4,12 +4,11 @@
 //! (CSV and PNG) and `summary.json` (losses, timings, and the value predicted at the
 //! season start beside the return the guide earned from there).
 
-use crate::cli::guide::{guide_factory, GuideChoice, GuideFactory};
-use crate::cli::output::{model_hash, progress_bar as bar, write_atomically, write_summary};
-use crate::cli::run_folder::RunFolder;
-use crate::cli::weather_args::WeatherArgs;
-use crate::cli::{load_model, CliError};
+use crate::cli::CliError;
 use crate::control::ValueFile;
+use crate::job::build::{guide_factory, GuideFactory};
+use crate::job::output::{model_hash, progress_bar as bar, write_atomically, write_summary};
+use crate::job::{load_model, GuideChoice, RunFolder, WeatherSpec};
 use crate::model::Plant;
 use crate::report::plot::{draw_xy, Line};
 use crate::rl::value_fit::{fit_value, EpochLoss, ValueFitConfig};
@@ -32,7 +31,7 @@ pub struct ValueArgs {
     #[arg(long, value_name = "DIR")]
     pub agent: Option<PathBuf>,
     #[command(flatten)]
-    pub weather: WeatherArgs,
+    pub weather: WeatherSpec,
     /// Roll-outs from perturbed states.
     #[arg(long, value_name = "N", default_value_t = 1000)]
     pub trajectories: usize,
@@ -84,8 +83,9 @@ pub fn run(args: &ValueArgs) -> Result<(), CliError> {
         &args.file,
         &args.weather,
         args.agent.as_deref(),
+        true,
     )?;
-    let folder = RunFolder::claim(&args.out, args.overwrite)?;
+    let folder = RunFolder::claim(&args.out, args.overwrite, None)?;
     folder.finish(fit_and_write(
         args,
         &plant,
@@ -265,7 +265,7 @@ fn write_curve(dir: &Path, curve: &[EpochLoss]) -> Result<(), CliError> {
             values: curve.iter().map(|e| log10(e.validation)).collect(),
         },
     ];
-    write_atomically(&dir.join("value_curve.png"), |path| {
+    Ok(write_atomically(&dir.join("value_curve.png"), |path| {
         draw_xy("value network fit", "epoch", "log10 MSE", &x, &lines, path)
-    })
+    })?)
 }

@@ -1,18 +1,19 @@
-//! Weather, season-length and plant-uncertainty options shared by every command that runs
-//! a season.
+//! The weather a season runs on and its length: the options every season command shares
+//! (flattened into their arguments), a study's `[weather]` table, and what is recorded in
+//! a training's `summary.json` so that `ghm train --resume` continues on the same season.
 
-use crate::cli::CliError;
+use crate::job::JobError;
 use crate::lang::Model;
-use crate::sim::season::{UncertaintyDraw, MAX_SEASON_STEPS};
+use crate::sim::season::MAX_SEASON_STEPS;
 use crate::sim::weather::Weather;
 use crate::sim::weather_source::{season_weather, SourceError, WeatherSource};
 use clap::Args;
 use std::path::PathBuf;
 
-/// Recorded in a training's `summary.json`, so that `ghm train --resume` continues on the
-/// same season.
+/// The weather source and the season's slice of it (first row, length).
 #[derive(Debug, Clone, PartialEq, Args, serde::Serialize, serde::Deserialize)]
-pub struct WeatherArgs {
+#[serde(default, deny_unknown_fields)]
+pub struct WeatherSpec {
     /// Weather CSV with a header of named columns (e.g. ../shared/data/venlo2014_30min_model_units.csv).
     /// Without --weather or --knmi, ghm's built-in Dutch late-winter season is used.
     #[arg(long, value_name = "CSV", conflicts_with = "knmi")]
@@ -37,16 +38,25 @@ pub struct WeatherArgs {
     pub steps: Option<usize>,
 }
 
-impl WeatherArgs {
+impl Default for WeatherSpec {
+    /// ghm's built-in season, 40 days (the flags' defaults).
+    fn default() -> Self {
+        WeatherSpec {
+            weather: None,
+            start_row: 0,
+            knmi: None,
+            knmi_co2: 420.0,
+            weather_seed: 2014,
+            days: None,
+            steps: None,
+        }
+    }
+}
+
+impl WeatherSpec {
     /// Whether no weather or season-length option was given (every one at its default).
     pub fn is_default(&self) -> bool {
-        self.weather.is_none()
-            && self.start_row == 0
-            && self.knmi.is_none()
-            && self.knmi_co2 == 420.0
-            && self.weather_seed == 2014
-            && self.days.is_none()
-            && self.steps.is_none()
+        *self == WeatherSpec::default()
     }
 
     /// Whether the season runs on ghm's built-in weather (no `--weather`, no `--knmi`).
@@ -56,7 +66,7 @@ impl WeatherArgs {
 
     /// Number of steps of the season, at least 1 and at most [`MAX_SEASON_STEPS`]; checked
     /// before anything is allocated for it.
-    pub fn steps(&self, model: &Model) -> Result<usize, CliError> {
+    pub fn steps(&self, model: &Model) -> Result<usize, JobError> {
         let per_day = 86400.0 / model.sample_period;
         let (steps, given) = match (self.steps, self.days) {
             (Some(n), _) => (n as f64, format!("--steps {n} is {n} steps")),
@@ -70,18 +80,18 @@ impl WeatherArgs {
             ),
         };
         if !(steps >= 1.0 && steps.is_finite()) {
-            return Err(CliError::Argument(
+            return Err(JobError::Spec(
                 "the season must have at least one step (check --days / --steps)".into(),
             ));
         }
         if steps > MAX_SEASON_STEPS as f64 {
-            return Err(CliError::Argument(format!(
+            return Err(JobError::Spec(format!(
                 "{given} of {} s; a season has at most {MAX_SEASON_STEPS} steps",
                 model.sample_period
             )));
         }
         if self.start_row > MAX_SEASON_STEPS {
-            return Err(CliError::Argument(format!(
+            return Err(JobError::Spec(format!(
                 "--start-row {}: the first row must be at most {MAX_SEASON_STEPS}",
                 self.start_row
             )));
@@ -90,13 +100,13 @@ impl WeatherArgs {
     }
 
     /// The weather for `steps` steps plus `extra` steps of forecast.
-    pub fn load(&self, model: &Model, steps: usize, extra: usize) -> Result<Weather, CliError> {
+    pub fn load(&self, model: &Model, steps: usize, extra: usize) -> Result<Weather, JobError> {
         let rows = steps.checked_add(extra).ok_or_else(|| {
-            CliError::Argument(format!("{steps} steps and {extra} more are too many rows"))
+            JobError::Spec(format!("{steps} steps and {extra} more are too many rows"))
         })?;
         season_weather(model, &self.source(), self.start_row, rows).map_err(|e| match e {
-            SourceError::Weather(e) => CliError::Weather(e),
-            period @ SourceError::Period { .. } => CliError::Argument(period.to_string()),
+            SourceError::Weather(e) => JobError::Weather(e),
+            period @ SourceError::Period { .. } => JobError::Spec(period.to_string()),
         })
     }
 
@@ -127,37 +137,5 @@ impl WeatherArgs {
             (None, Some(p)) => format!("knmi {} from row {}", p.display(), self.start_row),
             (None, None) => format!("built-in season, seed {}", self.weather_seed),
         }
-    }
-}
-
-/// The plant's parametric uncertainty. Controllers keep predicting with the nominal model.
-#[derive(Debug, Clone, Args)]
-pub struct UncertaintyArgs {
-    /// Parametric uncertainty δ of the plant (relative half-width; the model file says which
-    /// parameters and how often they are redrawn). 0 = the nominal, deterministic plant;
-    /// controllers predict with the nominal model either way.
-    #[arg(long, value_name = "DELTA", default_value_t = 0.0)]
-    pub uncertainty: f64,
-    /// Seed of the parameter draws.
-    #[arg(long, value_name = "S", default_value_t = 4)]
-    pub seed: u64,
-}
-
-impl UncertaintyArgs {
-    /// The nominal, deterministic plant.
-    pub const NOMINAL: UncertaintyArgs = UncertaintyArgs {
-        uncertainty: 0.0,
-        seed: 0,
-    };
-
-    /// The parameter draws, `None` for the nominal plant.
-    pub fn draw(&self) -> Result<Option<UncertaintyDraw>, CliError> {
-        if !(self.uncertainty >= 0.0 && self.uncertainty < 1.0) {
-            return Err(CliError::Argument("--uncertainty must be in [0, 1)".into()));
-        }
-        Ok((self.uncertainty > 0.0).then_some(UncertaintyDraw {
-            delta: self.uncertainty,
-            seed: self.seed,
-        }))
     }
 }

@@ -8,8 +8,8 @@
 //! refused unless `--overwrite` is given, which removes those files first, so that no
 //! stale file stays beside new ones. Files ghm does not write are never touched.
 
-use crate::cli::output::io_err;
-use crate::cli::CliError;
+use crate::job::output::io_err;
+use crate::job::{JobError, RunSpec};
 use crate::report::atomic;
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -37,6 +37,8 @@ const RUN_FILES: &[&str] = &[
 #[derive(Debug)]
 pub struct RunFolder {
     dir: PathBuf,
+    /// The job's spec, recorded in `run.json` (`null` for the commands that have none).
+    spec: serde_json::Value,
 }
 
 /// The run files in `dir`, by name (temporary files of atomic writes included).
@@ -55,7 +57,7 @@ fn run_files(dir: &Path) -> Vec<String> {
 
 /// Refuses `dir` if it holds a run's files and `overwrite` is not given; does not write.
 /// For a command that computes long before it writes (`ghm optimum`).
-pub fn check(dir: &Path, overwrite: bool) -> Result<(), CliError> {
+pub fn check(dir: &Path, overwrite: bool) -> Result<(), JobError> {
     let found = run_files(dir);
     if found.is_empty() || overwrite {
         return Ok(());
@@ -70,17 +72,31 @@ pub fn check(dir: &Path, overwrite: bool) -> Result<(), CliError> {
         Some(_) => "the files of an incomplete run (killed, or still running)",
         None => "the results of an earlier run",
     };
-    Err(CliError::Argument(format!(
+    Err(JobError::Spec(format!(
         "{} holds {what} ({}); pass --overwrite to replace them, or choose another --out",
         dir.display(),
         found.join(", ")
     )))
 }
 
+/// What `run.json` in `dir` records: the run's status (`running`, `complete`, `failed`)
+/// and the spec it ran (`null` for runs without one); `None` without a readable `run.json`.
+pub fn recorded(dir: &Path) -> Option<(String, serde_json::Value)> {
+    let text = std::fs::read_to_string(dir.join("run.json")).ok()?;
+    let record: serde_json::Value = serde_json::from_str(&text).ok()?;
+    let status = record["status"].as_str()?.to_string();
+    Some((status, record["spec"].clone()))
+}
+
 impl RunFolder {
     /// Claims `dir` for a new run: refused if it holds a run's files, unless `overwrite`
     /// (which removes them first); creates it and writes `run.json` as running.
-    pub fn claim(dir: &Path, overwrite: bool) -> Result<RunFolder, CliError> {
+    /// `spec`, when given, is recorded in `run.json`: a study knows a finished job by it.
+    pub fn claim(
+        dir: &Path,
+        overwrite: bool,
+        spec: Option<&RunSpec>,
+    ) -> Result<RunFolder, JobError> {
         check(dir, overwrite)?;
         let found = run_files(dir);
         if !found.is_empty() {
@@ -95,27 +111,36 @@ impl RunFolder {
             };
             removed.map_err(io_err(&path))?;
         }
-        RunFolder::continue_in(dir)
+        let mut folder = RunFolder::continue_in(dir)?;
+        if let Some(spec) = spec {
+            folder.spec = serde_json::to_value(spec).unwrap_or_default();
+            folder.mark("running", None)?;
+        }
+        Ok(folder)
     }
 
     /// Claims `dir` to continue the run in it (a resumed training), keeping its files.
-    pub fn continue_in(dir: &Path) -> Result<RunFolder, CliError> {
+    pub fn continue_in(dir: &Path) -> Result<RunFolder, JobError> {
         std::fs::create_dir_all(dir).map_err(io_err(dir))?;
         let folder = RunFolder {
             dir: dir.to_path_buf(),
+            spec: serde_json::Value::Null,
         };
         folder.mark("running", None)?;
         Ok(folder)
     }
 
     /// Marks the run complete: call it after the last result file is written.
-    pub fn complete(self) -> Result<(), CliError> {
+    pub fn complete(self) -> Result<(), JobError> {
         self.mark("complete", None)
     }
 
     /// Ends the run with `result`: complete if it is `Ok`, otherwise failed with its
     /// error (the error is returned as it was; a failure to mark it is only printed).
-    pub fn finish<T>(self, result: Result<T, CliError>) -> Result<T, CliError> {
+    pub fn finish<T, E>(self, result: Result<T, E>) -> Result<T, E>
+    where
+        E: std::fmt::Display + From<JobError>,
+    {
         match result {
             Ok(value) => {
                 self.complete()?;
@@ -130,13 +155,14 @@ impl RunFolder {
         }
     }
 
-    fn mark(&self, status: &str, error: Option<&str>) -> Result<(), CliError> {
+    fn mark(&self, status: &str, error: Option<&str>) -> Result<(), JobError> {
         let path = self.dir.join("run.json");
         let record = json!({
             "status": status,
             "command": std::env::args().collect::<Vec<_>>(),
             "pid": std::process::id(),
             "error": error,
+            "spec": self.spec,
         });
         let text = serde_json::to_string_pretty(&record).unwrap_or_default() + "\n";
         atomic::write(&path, text).map_err(io_err(&path))

@@ -5,7 +5,7 @@
 //! and one killed leaves them in the hidden temporary file, never as a `trajectory.csv`
 //! that looks like a shorter valid run.
 
-use crate::cli::CliError;
+use crate::job::JobError;
 use crate::model::Plant;
 use crate::report::atomic::{self, AtomicFile};
 use crate::report::plot::{draw_png, Figure, Line, Panel};
@@ -16,9 +16,9 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-/// An I/O error of `path` as a [`CliError::Output`].
-pub(crate) fn io_err(path: &Path) -> impl Fn(std::io::Error) -> CliError + '_ {
-    move |e| CliError::Output {
+/// An I/O error of `path` as a [`JobError::Output`].
+pub fn io_err(path: &Path) -> impl Fn(std::io::Error) -> JobError + '_ {
+    move |e| JobError::Output {
         path: path.to_path_buf(),
         message: e.to_string(),
     }
@@ -29,8 +29,8 @@ pub(crate) fn io_err(path: &Path) -> impl Fn(std::io::Error) -> CliError + '_ {
 pub fn write_atomically<E: std::fmt::Display>(
     path: &Path,
     write: impl FnOnce(&Path) -> Result<(), E>,
-) -> Result<(), CliError> {
-    let fail = |message: String| CliError::Output {
+) -> Result<(), JobError> {
+    let fail = |message: String| JobError::Output {
         path: path.to_path_buf(),
         message,
     };
@@ -63,7 +63,14 @@ pub struct TrajectoryWriter {
 }
 
 impl TrajectoryWriter {
-    pub fn create(dir: &Path, plant: &Plant, steps: usize) -> Result<TrajectoryWriter, CliError> {
+    /// Starts `dir/trajectory.csv` for a season of `steps` steps; `progress` draws the
+    /// per-step progress bar.
+    pub fn create(
+        dir: &Path,
+        plant: &Plant,
+        steps: usize,
+        progress: bool,
+    ) -> Result<TrajectoryWriter, JobError> {
         let path = dir.join("trajectory.csv");
         let file = AtomicFile::new(&path);
         let mut out = BufWriter::new(File::create(file.path()).map_err(io_err(&path))?);
@@ -101,6 +108,9 @@ impl TrajectoryWriter {
         writeln!(out, "{}", header.join(",")).map_err(io_err(&path))?;
         let steps_per_day = (86400.0 / m.sample_period).round().max(1.0) as usize;
         let bar = ProgressBar::new(steps as u64);
+        if !progress {
+            bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+        }
         bar.set_style(
             ProgressStyle::with_template(
                 "{spinner} day {msg} [{bar:30}] {pos}/{len} steps ({per_sec}, eta {eta})",
@@ -121,7 +131,7 @@ impl TrajectoryWriter {
 
     /// Ends the trajectory: renamed to `trajectory.csv` if the season is `complete`,
     /// otherwise to `trajectory.incomplete.csv`.
-    pub fn finish(&mut self, complete: bool) -> Result<(), CliError> {
+    pub fn finish(&mut self, complete: bool) -> Result<(), JobError> {
         self.bar.finish_and_clear();
         self.out.flush().map_err(io_err(&self.path))?;
         let Some(file) = self.file.take() else {
@@ -188,9 +198,9 @@ pub fn progress_bar(len: u64, template: &str) -> ProgressBar {
     bar
 }
 
-pub fn write_summary(dir: &Path, summary: &serde_json::Value) -> Result<(), CliError> {
+pub fn write_summary(dir: &Path, summary: &serde_json::Value) -> Result<(), JobError> {
     let path = dir.join("summary.json");
-    let text = serde_json::to_string_pretty(summary).map_err(|e| CliError::Output {
+    let text = serde_json::to_string_pretty(summary).map_err(|e| JobError::Output {
         path: path.clone(),
         message: e.to_string(),
     })?;
@@ -204,7 +214,7 @@ pub fn plot_trajectory(
     plant: &Plant,
     logs: &[StepLog],
     title: &str,
-) -> Result<(), CliError> {
+) -> Result<(), JobError> {
     let m = &plant.model;
     // Time in days, hours or minutes, whichever suits the run's length.
     let span_s = logs.len() as f64 * m.sample_period;

@@ -1,0 +1,63 @@
+//! One job layer under the commands: *what to run* → *a run folder*.
+//!
+//! A [`RunSpec`] names everything a season needs — the model file, the weather slice
+//! ([`WeatherSpec`]), the plant's uncertainty ([`PlantSpec`]) and the controller
+//! ([`ControllerSpec`]: fixed inputs, the expert, a policy, MPC, RL-guided MPC, the season
+//! optimum) — and [`run_season_job`] runs it into a run folder: `trajectory.csv`,
+//! `summary.json`, `trajectory.png`, and `run.json`, which says `complete` only when
+//! everything else is written ([`folder`]). The season commands (`ghm simulate`, `policy`,
+//! `mpc`, `rlmpc`, `optimum`) only map their flags onto a spec; `ghm study` plans many.
+//!
+//! A spec is plain data (serde): it is recorded in the folder's `run.json`, so a finished
+//! job can be recognised and never run again.
+
+pub mod build;
+pub mod folder;
+pub mod output;
+mod season;
+mod spec;
+mod weather;
+
+pub use build::load_model;
+pub use folder::RunFolder;
+pub use season::{print_metrics, run_season_job, JobOptions, SeasonOutcome};
+pub use spec::{
+    BandsChoice, ControllerSpec, CostForm, GuideChoice, MpcSpec, OptimumSpec, PlantSpec, RlmpcSpec,
+    RunSpec, SolverChoice, Variant,
+};
+pub use weather::WeatherSpec;
+
+use std::path::PathBuf;
+use thiserror::Error;
+
+/// Why a job could not run, or ran and failed; each message says what to do.
+#[derive(Debug, Error)]
+pub enum JobError {
+    /// The model file has errors; the rendered diagnostics (file:line:column) are the
+    /// message.
+    #[error("{0}")]
+    Model(String),
+    /// The weather file could not be read, or does not fit the model.
+    #[error("{0}")]
+    Weather(#[from] crate::sim::weather::WeatherError),
+    /// A season stopped: the weather does not cover it or fit the model, the controller
+    /// failed, the state diverged, or the step log could not be written.
+    #[error("{0}")]
+    Simulation(#[from] crate::sim::season::SimError),
+    /// A value of the spec is out of range, or a file it names (agent, value network,
+    /// inputs) is missing or does not fit the model; the message says which.
+    #[error("{0}")]
+    Spec(String),
+    /// A run folder or one of its files could not be created or written.
+    #[error("cannot write {path}: {message}")]
+    Output {
+        /// The file or folder that could not be written.
+        path: PathBuf,
+        /// Why, as the I/O or encoding error says it.
+        message: String,
+    },
+    /// A season in which every solve failed: its files are written (with the message in
+    /// `summary.json`'s `warnings`), but the run counts as failed.
+    #[error("{0}")]
+    NoSolveSucceeded(String),
+}

@@ -1,0 +1,453 @@
+//! A season job: a [`RunSpec`] run into its run folder. The controller is built from the
+//! spec, the season streams `trajectory.csv`, then `summary.json` (the figures, the spec's
+//! settings) and `trajectory.png` are written and the folder is marked complete.
+
+use crate::control::TerminalCostForm;
+use crate::control::{Controller, Expert, InputTable, Mpc, Policy, RlGuidance, RlMpcOptions};
+use crate::job::build::{
+    bands_name, guide_factory, load_model, make_mpc, make_solver, parse_horizon, parse_inputs,
+    resolve_policy, resolve_value,
+};
+use crate::job::folder::{self, RunFolder};
+use crate::job::output::{figure, model_hash, plot_trajectory, write_summary, TrajectoryWriter};
+use crate::job::spec::{
+    ControllerSpec, CostForm, MpcSpec, OptimumSpec, PlantSpec, RlmpcSpec, RunSpec, SolverChoice,
+    Variant,
+};
+use crate::job::JobError;
+use crate::model::Plant;
+use crate::sim::metrics::Metrics;
+use crate::sim::optimum::season_optimum;
+use crate::sim::season::{run_season, SeasonConfig, StepLog};
+use crate::sim::weather::Weather;
+use crate::solve::{Ipm, IpmOptions, Solver, Sqp, SqpOptions};
+use serde_json::json;
+use std::path::Path;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// How a job runs, beside what it runs.
+#[derive(Debug, Clone, Copy)]
+pub struct JobOptions {
+    /// Replace an earlier run's files in the folder (otherwise a folder holding them is
+    /// refused; see [`RunFolder::claim`]).
+    pub overwrite: bool,
+    /// Print the season's figures to stdout and draw its per-step progress bar (the
+    /// commands); a study keeps jobs quiet and shows its own progress.
+    pub verbose: bool,
+}
+
+/// What a finished season job reports.
+#[derive(Debug, Clone)]
+pub struct SeasonOutcome {
+    /// The season's figures (also in `summary.json`).
+    pub metrics: Metrics,
+    /// The controller's name in tables.
+    pub label: String,
+    /// The unit of the objective and the rewards (e.g. `€/m²`).
+    pub unit: String,
+}
+
+/// The controller of a spec, ready to run, with what `summary.json` says about it.
+struct Built {
+    plant: Arc<Plant>,
+    controller: Box<dyn Controller>,
+    label: String,
+    extra: serde_json::Value,
+    /// Weather rows needed beyond the season (a controller's horizon).
+    forecast: usize,
+    enforce_limits: bool,
+}
+
+/// Runs `spec` into the run folder `out`: the controller built, the season streamed into
+/// `trajectory.csv`, then `summary.json` and `trajectory.png` written and the folder marked
+/// complete.
+pub fn run_season_job(
+    spec: &RunSpec,
+    out: &Path,
+    options: &JobOptions,
+) -> Result<SeasonOutcome, JobError> {
+    let model = load_model(&spec.model)?;
+    let plant = Arc::new(Plant::new(model));
+    let plant_spec = match spec.controller {
+        ControllerSpec::Optimum(_) => &PlantSpec::NOMINAL,
+        _ => &spec.plant,
+    };
+    let uncertainty = plant_spec.draw()?;
+    let steps = spec.weather.steps(&plant.model)?;
+    let built = build(spec, &plant, plant_spec, steps, out, options)?;
+    let weather = spec.weather.load(&plant.model, steps, built.forecast)?;
+    let config = SeasonConfig {
+        steps,
+        enforce_limits: built.enforce_limits,
+        uncertainty,
+    };
+    let run = RunFolder::claim(out, options.overwrite, Some(spec))?;
+    let label = built.label.clone();
+    let metrics = run.finish(season_files(
+        spec, plant_spec, out, built, &weather, &config, options,
+    ))?;
+    Ok(SeasonOutcome {
+        metrics,
+        label,
+        unit: plant.model.objective_unit(),
+    })
+}
+
+/// The controller `spec` names, for a season of `steps` steps.
+fn build(
+    spec: &RunSpec,
+    plant: &Arc<Plant>,
+    plant_spec: &PlantSpec,
+    steps: usize,
+    out: &Path,
+    options: &JobOptions,
+) -> Result<Built, JobError> {
+    let fail = |e: crate::control::ControlError| JobError::Spec(e.to_string());
+    let mut built = Built {
+        plant: plant.clone(),
+        controller: Box::new(crate::control::ConstantInput(Vec::new())),
+        label: String::new(),
+        extra: json!({}),
+        forecast: 0,
+        enforce_limits: true,
+    };
+    match &spec.controller {
+        ControllerSpec::Inputs {
+            inputs,
+            enforce_limits,
+        } => {
+            built.controller = parse_inputs(inputs.as_deref(), plant)?;
+            built.enforce_limits = *enforce_limits;
+        }
+        ControllerSpec::Expert => {
+            built.controller = Box::new(Expert::new(plant.clone()).map_err(fail)?);
+            built.extra = json!({ "agent": "expert" });
+        }
+        ControllerSpec::Policy { agent } => {
+            let file = resolve_policy(
+                &spec.model,
+                &spec.weather,
+                agent.as_deref(),
+                plant,
+                options.verbose,
+            )?;
+            built.extra = json!({
+                "agent": agent.as_ref().map_or("shipped".into(), |a| a.display().to_string()),
+                "agent_episode": file.episode,
+            });
+            built.controller = Box::new(Policy::new(plant, file).map_err(fail)?);
+        }
+        ControllerSpec::Mpc(mpc) => {
+            let (controller, horizon, extra) = build_mpc(mpc, plant, plant_spec)?;
+            built.controller = Box::new(controller);
+            built.forecast = horizon;
+            built.extra = extra;
+        }
+        ControllerSpec::Rlmpc(rlmpc) => {
+            let (controller, horizon, extra) =
+                build_rlmpc(spec, rlmpc, plant, plant_spec, options.verbose)?;
+            built.controller = Box::new(controller);
+            built.label = rlmpc.label();
+            built.forecast = horizon;
+            built.extra = extra;
+        }
+        ControllerSpec::Optimum(optimum) => {
+            // Long to compute: a folder that would be refused is refused first.
+            folder::check(out, options.overwrite)?;
+            let (table, extra) = solve_optimum(spec, optimum, plant, steps, options)?;
+            built.controller = Box::new(table);
+            built.extra = extra;
+        }
+    }
+    if built.label.is_empty() {
+        built.label = built.controller.name();
+    }
+    Ok(built)
+}
+
+/// MPC with its horizon in steps and its summary fields.
+fn build_mpc(
+    spec: &MpcSpec,
+    plant: &Arc<Plant>,
+    plant_spec: &PlantSpec,
+) -> Result<(Mpc, usize, serde_json::Value), JobError> {
+    let horizon = parse_horizon(&spec.horizon, plant.model.sample_period)?;
+    let bands = spec.bands.resolve(plant_spec);
+    let mpc = make_mpc(plant, horizon, spec.solver, bands)?;
+    let extra = json!({
+        "horizon_steps": horizon,
+        "horizon_h": horizon as f64 * plant.model.sample_period / 3600.0,
+        "bands": bands_name(bands),
+    });
+    Ok((mpc, horizon, extra))
+}
+
+/// RL-guided MPC with its horizon in steps and its summary fields.
+fn build_rlmpc(
+    spec: &RunSpec,
+    rlmpc: &RlmpcSpec,
+    plant: &Arc<Plant>,
+    plant_spec: &PlantSpec,
+    verbose: bool,
+) -> Result<(Mpc, usize, serde_json::Value), JobError> {
+    let make_guide = guide_factory(
+        plant,
+        rlmpc.guide,
+        &spec.model,
+        &spec.weather,
+        rlmpc.agent.as_deref(),
+        verbose,
+    )?;
+    let value = match rlmpc.terminal_cost {
+        CostForm::None => None,
+        _ => Some(resolve_value(&spec.model, &spec.weather, rlmpc, plant)?),
+    };
+    if let Some(v) = &value {
+        if v.guide != rlmpc.guide.name() {
+            eprintln!(
+                "warning: the value network learned the {} guide's returns; the guide is {}",
+                v.guide,
+                rlmpc.guide.name()
+            );
+        }
+    }
+    let options = RlMpcOptions {
+        epsilon: (rlmpc.variant == Variant::Rlmpc).then_some(rlmpc.epsilon),
+        terminal_cost: match rlmpc.terminal_cost {
+            CostForm::Taylor => TerminalCostForm::Taylor,
+            _ => TerminalCostForm::Exact,
+        },
+    };
+    let guidance = RlGuidance::new(
+        plant.clone(),
+        make_guide(),
+        rlmpc.guide.name(),
+        value,
+        options,
+    )
+    .map_err(|e| JobError::Spec(e.to_string()))?;
+    let (mpc, horizon, mut extra) = build_mpc(&rlmpc.mpc(), plant, plant_spec)?;
+    if let Some(map) = extra.as_object_mut() {
+        map.extend([
+            ("guide".into(), json!(rlmpc.guide.name())),
+            (
+                "variant".into(),
+                json!(format!("{:?}", rlmpc.variant).to_lowercase()),
+            ),
+            ("epsilon".into(), json!(rlmpc.epsilon)),
+            (
+                "terminal_cost".into(),
+                json!(format!("{:?}", rlmpc.terminal_cost).to_lowercase()),
+            ),
+        ]);
+    }
+    Ok((mpc.with_guidance(Box::new(guidance)), horizon, extra))
+}
+
+/// The season optimum's inputs, from a closed loop of MPC refined as one NLP.
+fn solve_optimum(
+    spec: &RunSpec,
+    optimum: &OptimumSpec,
+    plant: &Arc<Plant>,
+    steps: usize,
+    options: &JobOptions,
+) -> Result<(InputTable, serde_json::Value), JobError> {
+    let say = |line: String| {
+        if options.verbose {
+            println!("{line}");
+        }
+    };
+    let horizon = parse_horizon(&optimum.init_horizon, plant.model.sample_period)?;
+    let weather = spec.weather.load(&plant.model, steps, horizon)?;
+    say(format!(
+        "initialising from a closed loop of MPC over {}",
+        optimum.init_horizon
+    ));
+    let mut mpc = Mpc::new(plant.clone(), horizon, Box::new(Sqp::default()))
+        .map_err(|e| JobError::Spec(e.to_string()))?;
+    let mut inputs = Vec::with_capacity(steps * plant.layout.nu);
+    let mut collect = |log: &StepLog| inputs.extend_from_slice(&log.input);
+    let config = SeasonConfig {
+        steps,
+        enforce_limits: true,
+        uncertainty: None,
+    };
+    let initial = run_season(plant, &weather, &mut mpc, &config, &mut collect)?;
+    say(format!(
+        "  closed loop: cumulative reward {:+.4} {}",
+        initial.metrics.cumulative_reward,
+        plant.model.objective_unit()
+    ));
+
+    say(format!("solving the season as one NLP ({steps} stages)"));
+    let choice = optimum.solver.unwrap_or(if cfg!(feature = "ipopt") {
+        SolverChoice::Ipopt
+    } else {
+        SolverChoice::Ipm
+    });
+    let mut solver: Box<dyn Solver> = match choice {
+        SolverChoice::Ipm => Box::new(Ipm::new(IpmOptions {
+            max_iterations: optimum.max_iterations,
+            trace: options.verbose,
+            ..IpmOptions::default()
+        })),
+        SolverChoice::Sqp => Box::new(Sqp::new(SqpOptions {
+            max_iterations: optimum.max_iterations,
+            trace: options.verbose,
+            ..SqpOptions::default()
+        })),
+        other => make_solver(other)?,
+    };
+    let clock = Instant::now();
+    let result = season_optimum(plant.clone(), &weather, steps, &inputs, solver.as_mut())
+        .map_err(|e| JobError::Spec(e.to_string()))?;
+    let seconds = clock.elapsed().as_secs_f64();
+    let s = &result.solution;
+    say(format!(
+        "  {} after {} iterations in {seconds:.1} s (KKT residual {:.1e})",
+        s.status,
+        s.stats.iterations,
+        s.stats.kkt.max()
+    ));
+    if !s.status.is_success() {
+        eprintln!(
+            "warning: the season NLP did not converge ({}); the figures below are those of the best point found",
+            s.status
+        );
+    }
+    let extra = json!({
+        "optimum": {
+            "solver": solver.name(),
+            "status": s.status,
+            "iterations": s.stats.iterations,
+            "time_s": seconds,
+            "kkt": s.stats.kkt,
+            "initial_horizon_steps": horizon,
+            "initial_cumulative_reward": initial.metrics.cumulative_reward,
+        }
+    });
+    Ok((InputTable(result.inputs.clone()), extra))
+}
+
+/// The season of [`run_season_job`] in its claimed folder.
+fn season_files(
+    spec: &RunSpec,
+    plant_spec: &PlantSpec,
+    out: &Path,
+    mut built: Built,
+    weather: &Weather,
+    config: &SeasonConfig,
+    options: &JobOptions,
+) -> Result<Metrics, JobError> {
+    let plant = built.plant.clone();
+    let steps = config.steps;
+    let mut writer = TrajectoryWriter::create(out, &plant, steps, options.verbose)?;
+    let result = run_season(
+        &plant,
+        weather,
+        built.controller.as_mut(),
+        config,
+        &mut writer,
+    );
+    writer.finish(result.is_ok())?;
+    let result = result?;
+    let m = &result.metrics;
+    let name = built.controller.name();
+    if options.verbose {
+        println!(
+            "{} steps ({:.1} days) of {} on {}",
+            m.steps,
+            m.steps as f64 * plant.model.sample_period / 86400.0,
+            name,
+            spec.weather.describe(&plant.model)
+        );
+        print_metrics(m, &plant.model.objective_unit());
+    }
+    let no_solve = no_solve_succeeded(m, &writer.logs, out);
+    let mut summary = json!({
+        "command": std::env::args().collect::<Vec<_>>(),
+        "model": spec.model.display().to_string(),
+        "model_sha256": model_hash(&plant),
+        "weather": spec.weather.describe(&plant.model),
+        "controller": name,
+        "label": built.label,
+        "unit": plant.model.objective_unit(),
+        "uncertainty": plant_spec.uncertainty,
+        "seed": plant_spec.seed,
+        "metrics": m,
+        "warnings": no_solve.iter().collect::<Vec<_>>(),
+    });
+    if let (Some(map), serde_json::Value::Object(more)) =
+        (summary.as_object_mut(), std::mem::take(&mut built.extra))
+    {
+        map.extend(more);
+    }
+    write_summary(out, &summary)?;
+    plot_trajectory(
+        out,
+        &plant,
+        &writer.logs,
+        &format!("{} — {}", plant.model.name, name),
+    )?;
+    if options.verbose {
+        println!(
+            "wrote {}/trajectory.csv, summary.json, trajectory.png",
+            out.display()
+        );
+    }
+    match no_solve {
+        Some(message) => Err(JobError::NoSolveSucceeded(message)),
+        None => Ok(result.metrics),
+    }
+}
+
+/// A season in which every step's solve failed is not a season of the controller but of
+/// its fallback: the files are written (to see why), and the run fails with this message.
+fn no_solve_succeeded(m: &Metrics, logs: &[StepLog], out: &Path) -> Option<String> {
+    if m.steps == 0 || m.solve.failed_solves < m.steps {
+        return None;
+    }
+    let first = logs.first().map(|l| &l.record);
+    Some(format!(
+        "every one of the {} solves failed (the first with status `{}`); the inputs were the \
+         fallback's (`{}`), not the controller's, so these figures do not measure it. The \
+         status column of {}/trajectory.csv says how each solve ended",
+        m.steps,
+        first.map_or("", |r| r.status.as_str()),
+        first.and_then(|r| r.fallback.as_deref()).unwrap_or("none"),
+        out.display()
+    ))
+}
+
+/// Prints the season figures.
+pub fn print_metrics(m: &Metrics, unit: &str) {
+    println!("  EPI               {} {unit}", figure(m.epi, true));
+    println!(
+        "  penalties         {} {unit}",
+        figure(m.total_penalty, false)
+    );
+    for b in &m.bands {
+        println!(
+            "    {:<14} {} {unit}, {:.1} h outside",
+            b.output,
+            figure(b.penalty, false),
+            b.hours_outside
+        );
+    }
+    println!(
+        "  cumulative reward {} {unit}",
+        figure(m.cumulative_reward, true)
+    );
+    let s = &m.solve;
+    if s.max_ms > 0.0 {
+        println!(
+            "  solve time        median {:.3} ms, p95 {:.3} ms, max {:.3} ms; {:.2} iterations per step",
+            s.median_ms, s.p95_ms, s.max_ms, s.mean_iterations
+        );
+        println!(
+            "  failed solves     {} ({} steps took a fallback)",
+            s.failed_solves, s.fallbacks
+        );
+    }
+}

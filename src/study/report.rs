@@ -1,0 +1,489 @@
+//! `ghm report`: the tables and figures of one or more study folders (runs or shards of
+//! the same study, or different studies), merged: per model, each controller's EPI and
+//! cumulative reward against the horizon on the nominal plant, and their mean, minimum and
+//! maximum over the stochastic scenarios, with failed solves and solve times; the season
+//! optimum and the controllers without a horizon beside them. Every table is a CSV, every
+//! figure a PNG drawn from the same rows, and `report.md` puts them together.
+
+use crate::job::folder;
+use crate::job::output::{figure, io_err, write_atomically};
+use crate::report::atomic;
+use crate::report::plot::{draw_png, Figure, Line, Panel};
+use crate::study::StudyError;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// One complete job's figures.
+#[derive(Debug, Clone, PartialEq)]
+pub struct JobRow {
+    /// The model's file stem.
+    pub model: String,
+    /// The controller's name in the study.
+    pub controller: String,
+    /// The horizon as written (empty: none).
+    pub horizon: String,
+    /// The horizon in hours, from the job's summary (`None`: none).
+    pub horizon_h: Option<f64>,
+    /// `nominal` or `stochastic-NN`.
+    pub scenario: String,
+    /// The plant's δ (0: nominal).
+    pub uncertainty: f64,
+    /// The seed of the plant's draws.
+    pub seed: u64,
+    /// Σ economic terms.
+    pub epi: f64,
+    /// Σ soft-band penalties.
+    pub total_penalty: f64,
+    /// EPI − penalties.
+    pub cumulative_reward: f64,
+    /// Failed solves over the season.
+    pub failed_solves: u64,
+    /// Median solve time, ms.
+    pub median_ms: f64,
+    /// 95th percentile of the solve times, ms.
+    pub p95_ms: f64,
+    /// Largest solve time, ms.
+    pub max_ms: f64,
+    /// The unit of money.
+    pub unit: String,
+    /// The job's folder, relative to its study folder.
+    pub folder: String,
+}
+
+/// The complete jobs of the study folders `dirs` (each with its `study.json`), the first
+/// folder's job kept where two hold the same (model, controller, horizon, scenario).
+pub fn gather(dirs: &[PathBuf]) -> Result<Vec<JobRow>, StudyError> {
+    let mut rows: Vec<JobRow> = Vec::new();
+    for dir in dirs {
+        let plan_path = dir.join("study.json");
+        let plan: serde_json::Value = std::fs::read_to_string(&plan_path)
+            .ok()
+            .and_then(|t| serde_json::from_str(&t).ok())
+            .ok_or_else(|| StudyError::File {
+                path: plan_path.clone(),
+                message: "no readable study.json: is this the --out folder of `ghm study`?".into(),
+            })?;
+        for job in plan["jobs"].as_array().into_iter().flatten() {
+            let text = |key: &str| job[key].as_str().unwrap_or_default().to_string();
+            let job_dir = dir.join(text("folder"));
+            if !matches!(folder::recorded(&job_dir), Some((s, _)) if s == "complete") {
+                continue;
+            }
+            let Some(summary) = std::fs::read_to_string(job_dir.join("summary.json"))
+                .ok()
+                .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+            else {
+                continue;
+            };
+            let m = &summary["metrics"];
+            let number = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
+            let row = JobRow {
+                model: text("model"),
+                controller: text("controller"),
+                horizon: text("horizon"),
+                horizon_h: summary["horizon_h"].as_f64(),
+                scenario: text("scenario"),
+                uncertainty: job["spec"]["plant"]["uncertainty"].as_f64().unwrap_or(0.0),
+                seed: job["spec"]["plant"]["seed"].as_u64().unwrap_or(0),
+                epi: number(&m["epi"]),
+                total_penalty: number(&m["total_penalty"]),
+                cumulative_reward: number(&m["cumulative_reward"]),
+                failed_solves: m["solve"]["failed_solves"].as_u64().unwrap_or(0),
+                median_ms: number(&m["solve"]["median_ms"]),
+                p95_ms: number(&m["solve"]["p95_ms"]),
+                max_ms: number(&m["solve"]["max_ms"]),
+                unit: summary["unit"].as_str().unwrap_or_default().to_string(),
+                folder: text("folder"),
+            };
+            let same = |r: &JobRow| {
+                (&r.model, &r.controller, &r.horizon, &r.scenario)
+                    == (&row.model, &row.controller, &row.horizon, &row.scenario)
+            };
+            if !rows.iter().any(same) {
+                rows.push(row);
+            }
+        }
+    }
+    Ok(rows)
+}
+
+/// One line of a model's table: a controller at a horizon.
+#[derive(Debug, Clone)]
+struct TableLine {
+    controller: String,
+    horizon: String,
+    horizon_h: Option<f64>,
+    nominal: Option<(f64, f64)>,
+    stochastic: Vec<(f64, f64)>,
+    failed_solves: u64,
+    median_ms: f64,
+    max_ms: f64,
+}
+
+/// The table lines of one model, in the order the rows first name them.
+fn table(rows: &[&JobRow]) -> Vec<TableLine> {
+    let mut lines: Vec<TableLine> = Vec::new();
+    for r in rows {
+        let i = match lines
+            .iter()
+            .position(|l| l.controller == r.controller && l.horizon == r.horizon)
+        {
+            Some(i) => i,
+            None => {
+                lines.push(TableLine {
+                    controller: r.controller.clone(),
+                    horizon: r.horizon.clone(),
+                    horizon_h: r.horizon_h,
+                    nominal: None,
+                    stochastic: Vec::new(),
+                    failed_solves: 0,
+                    median_ms: 0.0,
+                    max_ms: 0.0,
+                });
+                lines.len() - 1
+            }
+        };
+        let line = &mut lines[i];
+        if r.scenario == "nominal" {
+            line.nominal = Some((r.epi, r.cumulative_reward));
+            line.median_ms = r.median_ms;
+        } else {
+            line.stochastic.push((r.epi, r.cumulative_reward));
+        }
+        line.failed_solves += r.failed_solves;
+        line.max_ms = line.max_ms.max(r.max_ms);
+    }
+    lines
+}
+
+/// Mean, minimum and maximum.
+fn spread(values: impl Iterator<Item = f64>) -> Option<(f64, f64, f64)> {
+    let v: Vec<f64> = values.collect();
+    if v.is_empty() {
+        return None;
+    }
+    let mean = v.iter().sum::<f64>() / v.len() as f64;
+    let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    Some((mean, lo, hi))
+}
+
+/// What `ghm report` wrote.
+#[derive(Debug, Clone, Default)]
+pub struct ReportOutcome {
+    /// Complete jobs merged.
+    pub jobs: usize,
+    /// Models reported.
+    pub models: Vec<String>,
+}
+
+/// Writes the report of `rows` into `out`: `results.csv` (every job), per model
+/// `<model>.csv` (its table) and `<model>.png` (its figure), and `report.md`.
+pub fn write_report(rows: &[JobRow], out: &Path) -> Result<ReportOutcome, StudyError> {
+    std::fs::create_dir_all(out).map_err(io_err(out))?;
+    let mut models: BTreeMap<&str, Vec<&JobRow>> = BTreeMap::new();
+    for r in rows {
+        models.entry(r.model.as_str()).or_default().push(r);
+    }
+    let mut markdown = String::from("# Study report\n\n");
+    markdown.push_str(&format!(
+        "{} complete seasons. Rewards and EPI in {}; stochastic: mean [min, max] over the scenarios.\n",
+        rows.len(),
+        rows.first().map_or("the model's unit of money", |r| r.unit.as_str())
+    ));
+    for (model, model_rows) in &models {
+        let lines = table(model_rows);
+        write_model_csv(out, model, &lines)?;
+        let unit = model_rows.first().map_or("", |r| r.unit.as_str());
+        draw_model(out, model, &lines, unit)?;
+        markdown.push_str(&model_markdown(model, &lines));
+    }
+    write_results(out, rows)?;
+    let md = out.join("report.md");
+    atomic::write(&md, markdown).map_err(io_err(&md))?;
+    Ok(ReportOutcome {
+        jobs: rows.len(),
+        models: models.keys().map(|m| m.to_string()).collect(),
+    })
+}
+
+fn number(v: f64) -> String {
+    if v.is_finite() {
+        format!("{v:e}")
+    } else {
+        String::new()
+    }
+}
+
+/// `results.csv`: every job of `rows`, one row each, in their order.
+pub fn write_results(out: &Path, rows: &[JobRow]) -> Result<(), StudyError> {
+    let mut text = String::from(
+        "model,controller,horizon,horizon_h,scenario,uncertainty,seed,epi,total_penalty,\
+cumulative_reward,failed_solves,median_ms,p95_ms,max_ms,folder\n",
+    );
+    for r in rows {
+        let fields = [
+            csv(&r.model),
+            csv(&r.controller),
+            csv(&r.horizon),
+            r.horizon_h.map_or(String::new(), |h| format!("{h}")),
+            csv(&r.scenario),
+            format!("{}", r.uncertainty),
+            format!("{}", r.seed),
+            number(r.epi),
+            number(r.total_penalty),
+            number(r.cumulative_reward),
+            r.failed_solves.to_string(),
+            number(r.median_ms),
+            number(r.p95_ms),
+            number(r.max_ms),
+            csv(&r.folder),
+        ];
+        text.push_str(&fields.join(","));
+        text.push('\n');
+    }
+    let path = out.join("results.csv");
+    atomic::write(&path, text).map_err(io_err(&path))?;
+    Ok(())
+}
+
+/// `<model>.csv`: the model's table.
+fn write_model_csv(out: &Path, model: &str, lines: &[TableLine]) -> Result<(), StudyError> {
+    let mut text = String::from(
+        "controller,horizon,horizon_h,epi,cumulative_reward,stochastic_seasons,epi_mean,epi_min,epi_max,\
+reward_mean,reward_min,reward_max,failed_solves,median_ms,max_ms\n",
+    );
+    for l in lines {
+        let (epi, reward) = l.nominal.unwrap_or((f64::NAN, f64::NAN));
+        let e = spread(l.stochastic.iter().map(|s| s.0)).unwrap_or((f64::NAN, f64::NAN, f64::NAN));
+        let r = spread(l.stochastic.iter().map(|s| s.1)).unwrap_or((f64::NAN, f64::NAN, f64::NAN));
+        text.push_str(&format!(
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            csv(&l.controller),
+            csv(&l.horizon),
+            l.horizon_h.map_or(String::new(), |h| format!("{h}")),
+            number(epi),
+            number(reward),
+            l.stochastic.len(),
+            number(e.0),
+            number(e.1),
+            number(e.2),
+            number(r.0),
+            number(r.1),
+            number(r.2),
+            l.failed_solves,
+            number(l.median_ms),
+            number(l.max_ms)
+        ));
+    }
+    let path = out.join(format!("{model}.csv"));
+    atomic::write(&path, text).map_err(io_err(&path))?;
+    Ok(())
+}
+
+/// `<model>.png`: EPI and cumulative reward against the horizon, nominal and (where there
+/// are stochastic scenarios) their mean, minimum and maximum; a controller without a
+/// horizon (the optimum, a policy) is a flat line.
+fn draw_model(
+    out: &Path,
+    model: &str,
+    lines: &[TableLine],
+    lines_unit: &str,
+) -> Result<(), StudyError> {
+    let mut hours: Vec<f64> = lines.iter().filter_map(|l| l.horizon_h).collect();
+    hours.sort_by(f64::total_cmp);
+    hours.dedup();
+    if hours.is_empty() {
+        hours.push(0.0);
+    }
+    let mut controllers: Vec<&str> = Vec::new();
+    for l in lines {
+        if !controllers.contains(&l.controller.as_str()) {
+            controllers.push(&l.controller);
+        }
+    }
+    // One series per controller: its value at each horizon of the x axis.
+    let series = |value: &dyn Fn(&TableLine) -> Option<f64>| -> Vec<Line> {
+        controllers
+            .iter()
+            .map(|c| {
+                let mine: Vec<&TableLine> = lines.iter().filter(|l| l.controller == *c).collect();
+                let values = hours
+                    .iter()
+                    .map(|h| {
+                        let at = mine
+                            .iter()
+                            .find(|l| l.horizon_h.is_none_or(|lh| (lh - h).abs() < 1e-9));
+                        at.and_then(|l| value(l)).unwrap_or(f64::NAN)
+                    })
+                    .collect();
+                Line {
+                    label: c.to_string(),
+                    values,
+                }
+            })
+            .collect()
+    };
+    let unit = lines_unit.to_string();
+    let mut panels = vec![
+        Panel {
+            title: "EPI, nominal plant".into(),
+            unit: unit.clone(),
+            lines: series(&|l| l.nominal.map(|n| n.0)),
+            band: None,
+        },
+        Panel {
+            title: "cumulative reward, nominal plant".into(),
+            unit: unit.clone(),
+            lines: series(&|l| l.nominal.map(|n| n.1)),
+            band: None,
+        },
+    ];
+    if lines.iter().any(|l| !l.stochastic.is_empty()) {
+        let stat = |pick: fn((f64, f64)) -> f64, which: usize| {
+            move |l: &TableLine| {
+                spread(l.stochastic.iter().map(|s| pick(*s))).map(|m| [m.0, m.1, m.2][which])
+            }
+        };
+        for (title, which) in [("mean", 0), ("minimum", 1), ("maximum", 2)] {
+            panels.push(Panel {
+                title: format!("cumulative reward, stochastic {title}"),
+                unit: unit.clone(),
+                lines: series(&stat(|s| s.1, which)),
+                band: None,
+            });
+        }
+        panels.push(Panel {
+            title: "EPI, stochastic mean".into(),
+            unit: unit.clone(),
+            lines: series(&stat(|s| s.0, 0)),
+            band: None,
+        });
+    }
+    let fig = Figure {
+        title: format!("{model}: against the prediction horizon"),
+        x_label: "horizon (h)".into(),
+        x: hours,
+        panels,
+    };
+    write_atomically(&out.join(format!("{model}.png")), |path| {
+        draw_png(&fig, path)
+    })?;
+    Ok(())
+}
+
+/// The model's section of `report.md`.
+fn model_markdown(model: &str, lines: &[TableLine]) -> String {
+    let stochastic = lines.iter().any(|l| !l.stochastic.is_empty());
+    let mut md = format!("\n## {model}\n\n![{model}]({model}.png)\n\n");
+    md.push_str("| controller | horizon | EPI | cumulative reward |");
+    if stochastic {
+        md.push_str(" stochastic reward, mean [min, max] (seasons) |");
+    }
+    md.push_str(" failed solves | median / max solve (ms) |\n|---|---|---|---|");
+    if stochastic {
+        md.push_str("---|");
+    }
+    md.push_str("---|---|\n");
+    for l in lines {
+        let (epi, reward) = l.nominal.unwrap_or((f64::NAN, f64::NAN));
+        md.push_str(&format!(
+            "| {} | {} | {} | {} |",
+            l.controller,
+            if l.horizon.is_empty() {
+                "—"
+            } else {
+                &l.horizon
+            },
+            figure(epi, true),
+            figure(reward, true)
+        ));
+        if stochastic {
+            match spread(l.stochastic.iter().map(|s| s.1)) {
+                Some((mean, lo, hi)) => md.push_str(&format!(
+                    " {} [{}, {}] ({}) |",
+                    figure(mean, true),
+                    figure(lo, true),
+                    figure(hi, true),
+                    l.stochastic.len()
+                )),
+                None => md.push_str(" — |"),
+            }
+        }
+        md.push_str(&format!(
+            " {} | {:.2} / {:.2} |\n",
+            l.failed_solves, l.median_ms, l.max_ms
+        ));
+    }
+    md
+}
+
+/// A CSV field, quoted when it holds a comma or a quote.
+pub fn csv(text: &str) -> String {
+    if text.contains([',', '"', '\n']) {
+        format!("\"{}\"", text.replace('"', "\"\""))
+    } else {
+        text.to_string()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(controller: &str, horizon: Option<f64>, scenario: &str, reward: f64) -> JobRow {
+        JobRow {
+            model: "m".into(),
+            controller: controller.into(),
+            horizon: horizon.map_or(String::new(), |h| format!("{h}h")),
+            horizon_h: horizon,
+            scenario: scenario.into(),
+            uncertainty: 0.0,
+            seed: 0,
+            epi: reward + 1.0,
+            total_penalty: 1.0,
+            cumulative_reward: reward,
+            failed_solves: 1,
+            median_ms: 2.0,
+            p95_ms: 3.0,
+            max_ms: 4.0,
+            unit: "€".into(),
+            folder: String::new(),
+        }
+    }
+
+    #[test]
+    fn a_table_line_holds_the_nominal_season_and_the_spread_of_the_others() {
+        let rows = [
+            row("MPC", Some(1.0), "nominal", 3.0),
+            row("MPC", Some(1.0), "stochastic-00", 2.0),
+            row("MPC", Some(1.0), "stochastic-01", 4.5),
+            row("MPC", Some(2.0), "nominal", 3.5),
+            row("optimum", None, "nominal", 5.0),
+        ];
+        let refs: Vec<&JobRow> = rows.iter().collect();
+        let lines = table(&refs);
+        assert_eq!(lines.len(), 3);
+        assert_eq!(lines[0].nominal, Some((4.0, 3.0)));
+        assert_eq!(lines[0].failed_solves, 3);
+        let (mean, lo, hi) = spread(lines[0].stochastic.iter().map(|s| s.1)).unwrap();
+        assert_eq!((mean, lo, hi), (3.25, 2.0, 4.5));
+        assert!(lines[2].stochastic.is_empty());
+        let md = model_markdown("m", &lines);
+        assert!(
+            md.contains("| MPC | 1h | +4.0000 | +3.0000 | +3.2500 [+2.0000, +4.5000] (2) | 3 |"),
+            "{md}"
+        );
+        assert!(
+            md.contains("| optimum | — | +6.0000 | +5.0000 | — |"),
+            "{md}"
+        );
+    }
+
+    #[test]
+    fn csv_fields_with_commas_are_quoted() {
+        assert_eq!(csv("MPC"), "MPC");
+        assert_eq!(csv("RL-MPC (sac, 6h)"), "\"RL-MPC (sac, 6h)\"");
+        assert_eq!(csv("a\"b"), "\"a\"\"b\"");
+    }
+}

@@ -1,0 +1,264 @@
+//! Running a planned study: which jobs are already done, the rest in parallel on a pool of
+//! threads with one progress view, and `results.csv` gathered from every complete job
+//! ([`report::write_results`]).
+
+use crate::job::folder;
+use crate::job::output::{io_err, progress_bar};
+use crate::job::{run_season_job, JobError, JobOptions};
+use crate::report::atomic;
+use crate::study::plan::{plan, Job};
+use crate::study::report;
+use crate::study::StudyError;
+use rayon::prelude::*;
+use serde_json::json;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Instant;
+
+/// A deterministic slice of a study's jobs: job `k` (in plan order) belongs to shard
+/// `k mod count`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Shard {
+    /// This shard, from 0.
+    pub index: usize,
+    /// How many shards share the study.
+    pub count: usize,
+}
+
+impl Shard {
+    /// `i/n` as written on the command line.
+    pub fn parse(text: &str) -> Result<Shard, StudyError> {
+        let bad = || {
+            StudyError::Shard(format!(
+                "--shard {text}: expected i/n with 0 ≤ i < n, e.g. 0/4"
+            ))
+        };
+        let (i, n) = text.split_once('/').ok_or_else(bad)?;
+        let index: usize = i.trim().parse().map_err(|_| bad())?;
+        let count: usize = n.trim().parse().map_err(|_| bad())?;
+        if count == 0 || index >= count {
+            return Err(bad());
+        }
+        Ok(Shard { index, count })
+    }
+
+    /// The shard of a Slurm array task (`SLURM_ARRAY_TASK_ID` of
+    /// `SLURM_ARRAY_TASK_COUNT`), if this process is one.
+    pub fn from_slurm() -> Result<Option<Shard>, StudyError> {
+        let id = std::env::var("SLURM_ARRAY_TASK_ID");
+        let count = std::env::var("SLURM_ARRAY_TASK_COUNT");
+        match (id, count) {
+            (Ok(i), Ok(n)) => Shard::parse(&format!("{i}/{n}")).map(Some),
+            _ => Ok(None),
+        }
+    }
+}
+
+/// How a study runs.
+#[derive(Debug, Clone)]
+pub struct StudyOptions {
+    /// Jobs run at once (at least 1).
+    pub threads: usize,
+    /// Only this slice of the jobs; `None`: all.
+    pub shard: Option<Shard>,
+    /// Run again the jobs whose last run failed (otherwise they are reported and left).
+    pub retry_failed: bool,
+}
+
+/// What a study run did.
+#[derive(Debug, Clone, Default)]
+pub struct StudyOutcome {
+    /// Jobs of this run (or shard).
+    pub total: usize,
+    /// Found complete and left alone.
+    pub already_done: usize,
+    /// Run now, successfully.
+    pub ran: usize,
+    /// Failed, now or before (folders relative to the output folder).
+    pub failed: Vec<PathBuf>,
+    /// Rows written to `results.csv` (complete jobs of the whole study).
+    pub results: usize,
+}
+
+/// Where a job stands before the run.
+#[derive(Debug, PartialEq)]
+enum Found {
+    Done,
+    Failed,
+    ToRun,
+}
+
+fn found(job: &Job, out: &Path) -> Found {
+    let Some((status, spec)) = folder::recorded(&out.join(&job.folder)) else {
+        return Found::ToRun;
+    };
+    let same = serde_json::to_value(&job.spec).is_ok_and(|s| s == spec);
+    match status.as_str() {
+        "complete" if same => Found::Done,
+        "failed" if same => Found::Failed,
+        _ => Found::ToRun,
+    }
+}
+
+/// Plans the study at `path` and runs what is not done yet into `out`; see the
+/// [module documentation](self).
+pub fn run_study(
+    path: &Path,
+    out: &Path,
+    options: &StudyOptions,
+) -> Result<StudyOutcome, StudyError> {
+    let all = plan(path)?;
+    std::fs::create_dir_all(out).map_err(io_err(out))?;
+    write_plan(out, path, &all)?;
+    let jobs: Vec<&Job> = all
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| options.shard.is_none_or(|s| k % s.count == s.index))
+        .map(|(_, j)| j)
+        .collect();
+    let mut outcome = StudyOutcome {
+        total: jobs.len(),
+        ..StudyOutcome::default()
+    };
+    let mut pending = Vec::new();
+    for job in &jobs {
+        match found(job, out) {
+            Found::Done => outcome.already_done += 1,
+            Found::Failed if !options.retry_failed => outcome.failed.push(job.folder.clone()),
+            _ => pending.push(*job),
+        }
+    }
+    eprintln!(
+        "study {}: {} jobs{}, {} done already, {} failed before{}, {} to run on {} thread{}",
+        path.display(),
+        jobs.len(),
+        options.shard.map_or(String::new(), |s| format!(
+            " (shard {}/{})",
+            s.index, s.count
+        )),
+        outcome.already_done,
+        outcome.failed.len(),
+        if outcome.failed.is_empty() || options.retry_failed {
+            ""
+        } else {
+            " (--retry-failed runs them again)"
+        },
+        pending.len(),
+        options.threads,
+        if options.threads == 1 { "" } else { "s" }
+    );
+    let results = run_pending(&pending, out, options, jobs.len() - pending.len())?;
+    for (job, result) in pending.iter().zip(results) {
+        match result {
+            Ok(()) => outcome.ran += 1,
+            Err(_) => outcome.failed.push(job.folder.clone()),
+        }
+    }
+    let rows = report::gather(&[out.to_path_buf()])?;
+    report::write_results(out, &rows)?;
+    outcome.results = rows.len();
+    if outcome.failed.is_empty() {
+        Ok(outcome)
+    } else {
+        Err(StudyError::JobsFailed {
+            failed: outcome.failed.len(),
+            total: outcome.total,
+            list: outcome
+                .failed
+                .iter()
+                .map(|f| f.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", "),
+        })
+    }
+}
+
+/// Runs `pending` on a pool of `options.threads` threads, with a progress view counting
+/// from `done_before` jobs; one result per job, in order.
+fn run_pending(
+    pending: &[&Job],
+    out: &Path,
+    options: &StudyOptions,
+    done_before: usize,
+) -> Result<Vec<Result<(), JobError>>, StudyError> {
+    let total = done_before + pending.len();
+    let bar = progress_bar(
+        total as u64,
+        "{spinner} jobs [{bar:30}] {pos}/{len} ({elapsed}, eta {eta}) {msg}",
+    );
+    bar.set_position(done_before as u64);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(options.threads.max(1))
+        .build()
+        .map_err(|e| StudyError::Shard(format!("cannot start the study's threads: {e}")))?;
+    let running = AtomicUsize::new(0);
+    let finished = AtomicUsize::new(done_before);
+    let results = pool.install(|| {
+        pending
+            .par_iter()
+            .map(|job| {
+                let now = running.fetch_add(1, Ordering::SeqCst) + 1;
+                bar.set_message(format!(
+                    "{now} running, last started {}",
+                    job.folder.display()
+                ));
+                let clock = Instant::now();
+                let job_options = JobOptions {
+                    overwrite: true,
+                    verbose: false,
+                };
+                let result = run_season_job(&job.spec, &out.join(&job.folder), &job_options);
+                running.fetch_sub(1, Ordering::SeqCst);
+                let k = finished.fetch_add(1, Ordering::SeqCst) + 1;
+                let line = match &result {
+                    Ok(o) => format!(
+                        "[{k}/{total}] {}: cumulative reward {:+.4} {}, {} failed solves ({:.1} s)",
+                        job.folder.display(),
+                        o.metrics.cumulative_reward,
+                        o.unit,
+                        o.metrics.solve.failed_solves,
+                        clock.elapsed().as_secs_f64()
+                    ),
+                    Err(e) => format!("[{k}/{total}] {}: failed: {e}", job.folder.display()),
+                };
+                bar.suspend(|| eprintln!("{line}"));
+                bar.inc(1);
+                result.map(|_| ())
+            })
+            .collect()
+    });
+    bar.finish_and_clear();
+    Ok(results)
+}
+
+/// `study.json`: the study file and every job of its plan with its folder and spec.
+fn write_plan(out: &Path, path: &Path, jobs: &[Job]) -> Result<(), StudyError> {
+    let plan = json!({
+        "study": path.display().to_string(),
+        "jobs": jobs.iter().map(|j| json!({
+            "folder": j.folder.display().to_string(),
+            "model": j.model,
+            "controller": j.controller,
+            "horizon": j.horizon,
+            "scenario": j.scenario,
+            "spec": j.spec,
+        })).collect::<Vec<_>>(),
+    });
+    let target = out.join("study.json");
+    let text = serde_json::to_string_pretty(&plan).unwrap_or_default() + "\n";
+    atomic::write(&target, text).map_err(io_err(&target))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shards_parse_and_bad_ones_are_refused() {
+        assert_eq!(Shard::parse("1/4").unwrap(), Shard { index: 1, count: 4 });
+        for bad in ["4/4", "1", "a/b", "0/0", "-1/2"] {
+            assert!(Shard::parse(bad).is_err(), "{bad}");
+        }
+    }
+}

@@ -1,0 +1,254 @@
+//! `ghm study` end to end on `examples/studies/tiny.toml`: every job planned runs into its
+//! folder and into `results.csv`; a second run recomputes nothing; a study killed halfway
+//! completes when run again, with the same figures as one never stopped; a job whose spec
+//! changed runs again.
+
+mod common;
+
+use common::bin::{ghm_with_stdout as ghm, temp_dir};
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// The tiny study's jobs: the optimum, expert and SAC on 3 scenarios, MPC and RL-MPC on
+/// 2 horizons × 3 scenarios.
+const TINY_JOBS: usize = 1 + 3 + 3 + 2 * 3 + 2 * 3;
+
+/// `results.csv` as folder → (cumulative reward, EPI, failed solves): the figures, not the
+/// times.
+fn results(out: &Path) -> BTreeMap<String, (String, String, String)> {
+    let text = std::fs::read_to_string(out.join("results.csv")).expect("results.csv");
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().expect("header").split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).expect(name);
+    let (folder, reward, epi, failed) = (
+        col("folder"),
+        col("cumulative_reward"),
+        col("epi"),
+        col("failed_solves"),
+    );
+    lines
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            assert_eq!(f.len(), header.len(), "{l}");
+            (
+                f[folder].to_string(),
+                (f[reward].into(), f[epi].into(), f[failed].into()),
+            )
+        })
+        .collect()
+}
+
+fn complete_jobs(out: &Path) -> usize {
+    fn walk(dir: &Path, n: &mut usize) {
+        let Ok(entries) = std::fs::read_dir(dir) else {
+            return;
+        };
+        for e in entries.flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                walk(&p, n);
+            } else if p.file_name().is_some_and(|f| f == "run.json")
+                && std::fs::read_to_string(&p).is_ok_and(|t| t.contains("\"complete\""))
+            {
+                *n += 1;
+            }
+        }
+    }
+    let mut n = 0;
+    walk(out, &mut n);
+    n
+}
+
+#[test]
+fn a_study_runs_every_job_once_and_resumes_after_a_kill() {
+    let study = "examples/studies/tiny.toml";
+    let whole = temp_dir("study-whole");
+    let w = whole.to_str().unwrap();
+    let (ok, out, err) = ghm(&["study", study, "--out", w, "--threads", "2"]);
+    assert!(ok, "{out}\n{err}");
+    assert!(
+        out.contains(&format!(
+            "{TINY_JOBS} jobs: {TINY_JOBS} run now, 0 done before"
+        )),
+        "{out}"
+    );
+    let first = results(&whole);
+    assert_eq!(first.len(), TINY_JOBS, "{first:?}");
+    for (folder, (reward, _, failed)) in &first {
+        assert!(
+            reward.parse::<f64>().is_ok_and(f64::is_finite),
+            "{folder}: {reward}"
+        );
+        assert_eq!(failed, "0", "{folder}");
+    }
+    // The optimum is the ceiling of the nominal seasons.
+    let optimum: f64 = first["lettuce/optimum"].0.parse().unwrap();
+    for (folder, (reward, _, _)) in &first {
+        if folder.ends_with("/nominal") {
+            let r: f64 = reward.parse().unwrap();
+            assert!(
+                r <= optimum + 1e-6,
+                "{folder}: {r} above the optimum {optimum}"
+            );
+        }
+    }
+    assert!(whole.join("study.json").is_file());
+
+    // Run again: nothing is recomputed.
+    let stamp = std::fs::metadata(whole.join("lettuce/mpc/2h/nominal/summary.json"))
+        .and_then(|m| m.modified())
+        .unwrap();
+    let (ok, out, err) = ghm(&["study", study, "--out", w]);
+    assert!(ok, "{err}");
+    assert!(
+        out.contains(&format!(
+            "{TINY_JOBS} jobs: 0 run now, {TINY_JOBS} done before"
+        )),
+        "{out}"
+    );
+    let again = std::fs::metadata(whole.join("lettuce/mpc/2h/nominal/summary.json"))
+        .and_then(|m| m.modified())
+        .unwrap();
+    assert_eq!(stamp, again);
+
+    // Killed after a few jobs, then run again: the same figures as the whole run.
+    let killed = temp_dir("study-killed");
+    let k = killed.to_str().unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_ghm"))
+        .args(["study", study, "--out", k, "--threads", "1"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("start ghm study");
+    let clock = Instant::now();
+    while complete_jobs(&killed) < 4 && clock.elapsed() < Duration::from_secs(300) {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    child.kill().expect("kill ghm study");
+    let _ = child.wait();
+    let done_at_kill = complete_jobs(&killed);
+    assert!(
+        (4..TINY_JOBS).contains(&done_at_kill),
+        "{done_at_kill} jobs complete when killed"
+    );
+    let (ok, out, err) = ghm(&["study", study, "--out", k]);
+    assert!(ok, "{out}\n{err}");
+    let run_now = TINY_JOBS - done_at_kill;
+    assert!(
+        out.contains(&format!(
+            "{TINY_JOBS} jobs: {run_now} run now, {done_at_kill} done before"
+        )),
+        "{out}"
+    );
+    assert_eq!(results(&killed), first);
+
+    // A changed study (another terminal region for RL-MPC) runs the changed jobs only.
+    let changed = killed.join("changed.toml");
+    let text = std::fs::read_to_string(study).unwrap();
+    let models = std::fs::canonicalize("models/lettuce.ghm").unwrap();
+    let text = text
+        .replace(
+            "\"../../models/lettuce.ghm\"",
+            &format!("{:?}", models.display().to_string()),
+        )
+        .replace("guide = \"sac\"", "guide = \"sac\"\nepsilon = 0.1");
+    std::fs::write(&changed, text).unwrap();
+    let (ok, out, err) = ghm(&["study", changed.to_str().unwrap(), "--out", k]);
+    assert!(ok, "{out}\n{err}");
+    let rlmpc_jobs = 2 * 3;
+    assert!(
+        out.contains(&format!(
+            "{TINY_JOBS} jobs: {rlmpc_jobs} run now, {} done before",
+            TINY_JOBS - rlmpc_jobs
+        )),
+        "{out}"
+    );
+
+    // The report of both folders: each (controller, horizon, scenario) once, the first
+    // folder's where both hold it; one table line per controller and horizon.
+    let report = whole.join("report");
+    let (ok, out, err) = ghm(&["report", w, k, "--out", report.to_str().unwrap()]);
+    assert!(ok, "{out}\n{err}");
+    assert!(
+        out.starts_with(&format!("{TINY_JOBS} seasons of 1 model")),
+        "{out}"
+    );
+    let table = std::fs::read_to_string(report.join("lettuce.csv")).unwrap();
+    let lines: Vec<&str> = table.lines().skip(1).collect();
+    assert_eq!(lines.len(), 1 + 1 + 1 + 2 + 2, "{table}");
+    let mpc_2h = lines
+        .iter()
+        .find(|l| l.starts_with("MPC,2h,"))
+        .expect("MPC at 2h");
+    let field = |line: &str, i: usize| line.split(',').nth(i).unwrap_or_default().to_string();
+    assert_eq!(field(mpc_2h, 4), first["lettuce/mpc/2h/nominal"].0);
+    assert_eq!(field(mpc_2h, 5), "2", "two stochastic seasons: {mpc_2h}");
+    let md = std::fs::read_to_string(report.join("report.md")).unwrap();
+    assert!(
+        md.contains("![lettuce](lettuce.png)") && md.contains("| RL-MPC | 2h |"),
+        "{md}"
+    );
+    let png = std::fs::read(report.join("lettuce.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+    let (ok, _, err) = ghm(&["report", k, "--out", report.to_str().unwrap()]);
+    assert!(ok, "{err}");
+    let (ok, _, err) = ghm(&["report", "examples", "--out", report.to_str().unwrap()]);
+    assert!(!ok && err.contains("study.json"), "{err}");
+
+    let _ = std::fs::remove_dir_all(&whole);
+    let _ = std::fs::remove_dir_all(&killed);
+}
+
+#[test]
+fn a_bad_study_or_shard_is_refused_with_a_clear_message() {
+    let dir = temp_dir("study-bad");
+    std::fs::create_dir_all(&dir).unwrap();
+    let bad = dir.join("bad.toml");
+    std::fs::write(&bad, "models = [\"m.ghm\"]\nhorizons = 3\n").unwrap();
+    let (ok, _, err) = ghm(&[
+        "study",
+        bad.to_str().unwrap(),
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(!ok);
+    assert!(
+        err.contains("bad.toml") && err.contains("line 2"),
+        "the message names the file and the line: {err}"
+    );
+    let (ok, _, err) = ghm(&[
+        "study",
+        "examples/studies/tiny.toml",
+        "--shard",
+        "2/2",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(!ok && err.contains("--shard 2/2"), "{err}");
+    let (ok, _, err) = ghm(&["study", "nowhere.toml"]);
+    assert!(!ok && err.contains("nowhere.toml"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn shards_split_the_jobs_and_together_make_the_whole_study() {
+    let out = temp_dir("study-shards");
+    let o = out.to_str().unwrap();
+    for shard in ["0/2", "1/2"] {
+        let (ok, stdout, err) = ghm(&[
+            "study",
+            "examples/studies/tiny.toml",
+            "--out",
+            o,
+            "--shard",
+            shard,
+            "--threads",
+            "1",
+        ]);
+        assert!(ok, "{stdout}\n{err}");
+    }
+    assert_eq!(results(&out).len(), TINY_JOBS);
+    let _ = std::fs::remove_dir_all(&out);
+}
