@@ -1,11 +1,14 @@
 //! `ghm._ghm`: the Rust half of the Python package.
 //!
-//! It exposes ghm's reinforcement-learning environment ([`ghm::rl::Env`]) and a model's
-//! declarations to Python; the Gymnasium classes around them live in
+//! It exposes ghm's reinforcement-learning environment ([`ghm::rl::Env`]), a model's
+//! declarations, and seasons and controllers of ghm's job layer ([`controllers`]) to
+//! Python; the Gymnasium classes around them live in
 //! `python/python/ghm/__init__.py`. Arrays cross the boundary as NumPy `float64` arrays.
 //! Every error becomes a Python exception carrying ghm's own message (a bad model's
 //! diagnostics with file, line and column): [`ModelError`] for a model that does not
 //! check, `ValueError` for bad arguments and data, `RuntimeError` for a diverged episode.
+
+mod controllers;
 
 use ghm::model::Plant;
 use ghm::rl::{Env, RlError};
@@ -363,7 +366,9 @@ fn load<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyDict>> {
 fn _ghm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<RawEnv>()?;
     m.add_class::<RawVecEnv>()?;
+    m.add_class::<controllers::RawController>()?;
     m.add_function(wrap_pyfunction!(load, m)?)?;
+    m.add_function(wrap_pyfunction!(controllers::season, m)?)?;
     m.add("ModelError", m.py().get_type::<ModelError>())?;
     Ok(())
 }

@@ -20,7 +20,10 @@ mod weather;
 
 pub use build::load_model;
 pub use folder::RunFolder;
-pub use season::{print_metrics, run_season_job, JobOptions, SeasonOutcome};
+pub use season::{
+    build_controller, print_metrics, run_season_job, run_season_logs, JobOptions, SeasonLogs,
+    SeasonOutcome, StandaloneController,
+};
 pub use spec::{
     BandsChoice, ControllerSpec, CostForm, GuideChoice, MpcSpec, OptimumSpec, PlantSpec, RlmpcSpec,
     RunSpec, SolverChoice, Variant,

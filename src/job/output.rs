@@ -48,6 +48,80 @@ pub fn model_hash(plant: &Plant) -> String {
     h.finalize().iter().map(|b| format!("{b:02x}")).collect()
 }
 
+/// The columns of `trajectory.csv`: step and time, states, outputs, inputs, weather,
+/// stage terms, the economic term, the penalties, reward, cumulative reward, and how the
+/// controller decided (solve time, iterations, inertia corrections, and the text columns
+/// [`TEXT_COLUMNS`]).
+pub fn trajectory_header(plant: &Plant) -> Vec<String> {
+    let m = &plant.model;
+    let mut header = vec!["k".to_string(), "time_h".to_string()];
+    header.extend(m.states.iter().map(|s| format!("x_{}", s.info.name)));
+    header.extend(m.outputs.iter().map(|o| format!("y_{}", o.info.name)));
+    header.extend(m.inputs.iter().map(|u| format!("u_{}", u.info.name)));
+    header.extend(m.disturbances.iter().map(|d| format!("d_{}", d.info.name)));
+    header.extend(
+        plant
+            .stage_term_index
+            .iter()
+            .map(|&i| format!("term_{}", m.terms[i].info.name)),
+    );
+    header.push("economic".into());
+    header.extend(
+        m.soft
+            .iter()
+            .map(|b| format!("penalty_{}", m.outputs[b.output].info.name)),
+    );
+    header.extend(
+        [
+            "reward",
+            "cumulative_reward",
+            "solve_ms",
+            "iterations",
+            "inertia_corrections",
+        ]
+        .map(String::from),
+    );
+    header.extend(TEXT_COLUMNS.map(String::from));
+    header
+}
+
+/// The columns of `trajectory.csv` that hold text, last in its header.
+pub const TEXT_COLUMNS: [&str; 3] = ["status", "fallback", "terminal_region"];
+
+/// The numeric columns of [`trajectory_header`] (all but [`TEXT_COLUMNS`]) of one step,
+/// in its order.
+pub fn numeric_fields(log: &StepLog, period_h: f64) -> Vec<f64> {
+    let mut row = vec![log.step as f64, log.step as f64 * period_h];
+    row.extend(season_numbers(log));
+    row.push(log.record.solve_time_s * 1e3);
+    row.push(log.record.iterations as f64);
+    row.push(log.record.inertia_corrections as f64);
+    row
+}
+
+/// A step's numbers of the plant and the season, from the states to the cumulative reward.
+fn season_numbers(log: &StepLog) -> impl Iterator<Item = f64> + '_ {
+    log.state
+        .iter()
+        .chain(&log.outputs)
+        .chain(&log.input)
+        .chain(&log.disturbance)
+        .chain(&log.terms)
+        .chain(std::iter::once(&log.economic))
+        .chain(&log.penalties)
+        .chain([&log.reward, &log.cumulative_reward])
+        .copied()
+}
+
+/// The text columns ([`TEXT_COLUMNS`]) of one step.
+pub fn text_fields(log: &StepLog) -> [String; 3] {
+    [
+        log.record.status.clone(),
+        log.record.fallback.clone().unwrap_or_default(),
+        log.record.terminal_region.clone().unwrap_or_default(),
+    ]
+}
+
 /// The name under which a failed season's rows are kept.
 pub const INCOMPLETE_TRAJECTORY: &str = "trajectory.incomplete.csv";
 
@@ -75,36 +149,7 @@ impl TrajectoryWriter {
         let file = AtomicFile::new(&path);
         let mut out = BufWriter::new(File::create(file.path()).map_err(io_err(&path))?);
         let m = &plant.model;
-        let mut header = vec!["k".to_string(), "time_h".to_string()];
-        header.extend(m.states.iter().map(|s| format!("x_{}", s.info.name)));
-        header.extend(m.outputs.iter().map(|o| format!("y_{}", o.info.name)));
-        header.extend(m.inputs.iter().map(|u| format!("u_{}", u.info.name)));
-        header.extend(m.disturbances.iter().map(|d| format!("d_{}", d.info.name)));
-        header.extend(
-            plant
-                .stage_term_index
-                .iter()
-                .map(|&i| format!("term_{}", m.terms[i].info.name)),
-        );
-        header.push("economic".into());
-        header.extend(
-            m.soft
-                .iter()
-                .map(|b| format!("penalty_{}", m.outputs[b.output].info.name)),
-        );
-        header.extend(
-            [
-                "reward",
-                "cumulative_reward",
-                "solve_ms",
-                "iterations",
-                "inertia_corrections",
-                "status",
-                "fallback",
-                "terminal_region",
-            ]
-            .map(String::from),
-        );
+        let header = trajectory_header(plant);
         writeln!(out, "{}", header.join(",")).map_err(io_err(&path))?;
         let steps_per_day = (86400.0 / m.sample_period).round().max(1.0) as usize;
         let bar = ProgressBar::new(steps as u64);
@@ -152,23 +197,11 @@ impl StepSink for TrajectoryWriter {
             log.step.to_string(),
             format!("{}", log.step as f64 * self.period_h),
         ];
-        let nums = log
-            .state
-            .iter()
-            .chain(&log.outputs)
-            .chain(&log.input)
-            .chain(&log.disturbance)
-            .chain(&log.terms)
-            .chain(std::iter::once(&log.economic))
-            .chain(&log.penalties)
-            .chain([&log.reward, &log.cumulative_reward]);
-        row.extend(nums.map(|v| format!("{v:e}")));
+        row.extend(season_numbers(log).map(|v| format!("{v:e}")));
         row.push(format!("{:.4}", log.record.solve_time_s * 1e3));
         row.push(log.record.iterations.to_string());
         row.push(log.record.inertia_corrections.to_string());
-        row.push(log.record.status.clone());
-        row.push(log.record.fallback.clone().unwrap_or_default());
-        row.push(log.record.terminal_region.clone().unwrap_or_default());
+        row.extend(text_fields(log));
         writeln!(self.out, "{}", row.join(",")).map_err(|e| e.to_string())?;
         if (log.step + 1) % self.steps_per_day == 0 {
             self.out.flush().map_err(|e| e.to_string())?;

@@ -59,6 +59,40 @@ struct Built {
     enforce_limits: bool,
 }
 
+/// A season ready to run: the plant, the controller, its weather and the loop's settings.
+struct Prepared {
+    built: Built,
+    plant_spec: PlantSpec,
+    weather: Weather,
+    config: SeasonConfig,
+}
+
+/// Loads the model and builds everything `spec` names; `out`, if given, is the folder the
+/// season will be written to (refused first where the controller is long to build).
+fn prepare(spec: &RunSpec, out: Option<&Path>, options: &JobOptions) -> Result<Prepared, JobError> {
+    let model = load_model(&spec.model)?;
+    let plant = Arc::new(Plant::new(model));
+    let plant_spec = match spec.controller {
+        ControllerSpec::Optimum(_) => PlantSpec::NOMINAL,
+        _ => spec.plant.clone(),
+    };
+    let uncertainty = plant_spec.draw()?;
+    let steps = spec.weather.steps(&plant.model)?;
+    let built = build(spec, &plant, &plant_spec, steps, out, options)?;
+    let weather = spec.weather.load(&plant.model, steps, built.forecast)?;
+    let config = SeasonConfig {
+        steps,
+        enforce_limits: built.enforce_limits,
+        uncertainty,
+    };
+    Ok(Prepared {
+        built,
+        plant_spec,
+        weather,
+        config,
+    })
+}
+
 /// Runs `spec` into the run folder `out`: the controller built, the season streamed into
 /// `trajectory.csv`, then `summary.json` and `trajectory.png` written and the folder marked
 /// complete.
@@ -67,30 +101,83 @@ pub fn run_season_job(
     out: &Path,
     options: &JobOptions,
 ) -> Result<SeasonOutcome, JobError> {
-    let model = load_model(&spec.model)?;
-    let plant = Arc::new(Plant::new(model));
-    let plant_spec = match spec.controller {
-        ControllerSpec::Optimum(_) => &PlantSpec::NOMINAL,
-        _ => &spec.plant,
-    };
-    let uncertainty = plant_spec.draw()?;
-    let steps = spec.weather.steps(&plant.model)?;
-    let built = build(spec, &plant, plant_spec, steps, out, options)?;
-    let weather = spec.weather.load(&plant.model, steps, built.forecast)?;
-    let config = SeasonConfig {
-        steps,
-        enforce_limits: built.enforce_limits,
-        uncertainty,
-    };
+    let prepared = prepare(spec, Some(out), options)?;
     let run = RunFolder::claim(out, options.overwrite, Some(spec))?;
-    let label = built.label.clone();
-    let metrics = run.finish(season_files(
-        spec, plant_spec, out, built, &weather, &config, options,
-    ))?;
+    let label = prepared.built.label.clone();
+    let unit = prepared.built.plant.model.objective_unit();
+    let metrics = run.finish(season_files(spec, out, prepared, options))?;
     Ok(SeasonOutcome {
         metrics,
         label,
-        unit: plant.model.objective_unit(),
+        unit,
+    })
+}
+
+/// A season run in memory ([`run_season_logs`]).
+pub struct SeasonLogs {
+    /// The plant (the model the spec names).
+    pub plant: Arc<Plant>,
+    /// Every step's log: the rows of `trajectory.csv`.
+    pub logs: Vec<StepLog>,
+    /// The season's figures.
+    pub metrics: Metrics,
+}
+
+/// A season of `spec` run in memory, without a folder: the plant, every step's log and
+/// the figures (the library's and the Python package's way to the same season as the
+/// commands').
+pub fn run_season_logs(spec: &RunSpec) -> Result<SeasonLogs, JobError> {
+    let quiet = JobOptions {
+        overwrite: false,
+        verbose: false,
+    };
+    let mut prepared = prepare(spec, None, &quiet)?;
+    let plant = prepared.built.plant.clone();
+    let mut logs = Vec::with_capacity(prepared.config.steps);
+    let mut collect = |log: &StepLog| logs.push(log.clone());
+    let result = run_season(
+        &plant,
+        &prepared.weather,
+        prepared.built.controller.as_mut(),
+        &prepared.config,
+        &mut collect,
+    )?;
+    Ok(SeasonLogs {
+        plant,
+        logs,
+        metrics: result.metrics,
+    })
+}
+
+/// A controller built from a spec, to be driven step by step ([`build_controller`]).
+pub struct StandaloneController {
+    /// The plant (the model the spec names).
+    pub plant: Arc<Plant>,
+    /// The controller.
+    pub controller: Box<dyn Controller>,
+    /// Rows of weather forecast it reads ahead (its horizon; 0 without one).
+    pub forecast_rows: usize,
+}
+
+/// The controller `spec` names, to be driven step by step. The optimum is a season, not a
+/// controller, and is refused.
+pub fn build_controller(spec: &RunSpec) -> Result<StandaloneController, JobError> {
+    if matches!(spec.controller, ControllerSpec::Optimum(_)) {
+        return Err(JobError::Spec(
+            "the season optimum decides a whole season at once; run it as a season".into(),
+        ));
+    }
+    let model = load_model(&spec.model)?;
+    let plant = Arc::new(Plant::new(model));
+    let quiet = JobOptions {
+        overwrite: false,
+        verbose: false,
+    };
+    let built = build(spec, &plant, &spec.plant, 0, None, &quiet)?;
+    Ok(StandaloneController {
+        plant,
+        controller: built.controller,
+        forecast_rows: built.forecast,
     })
 }
 
@@ -100,7 +187,7 @@ fn build(
     plant: &Arc<Plant>,
     plant_spec: &PlantSpec,
     steps: usize,
-    out: &Path,
+    out: Option<&Path>,
     options: &JobOptions,
 ) -> Result<Built, JobError> {
     let fail = |e: crate::control::ControlError| JobError::Spec(e.to_string());
@@ -154,7 +241,9 @@ fn build(
         }
         ControllerSpec::Optimum(optimum) => {
             // Long to compute: a folder that would be refused is refused first.
-            folder::check(out, options.overwrite)?;
+            if let Some(out) = out {
+                folder::check(out, options.overwrite)?;
+            }
             let (table, extra) = solve_optimum(spec, optimum, plant, steps, options)?;
             built.controller = Box::new(table);
             built.extra = extra;
@@ -333,21 +422,23 @@ fn solve_optimum(
 /// The season of [`run_season_job`] in its claimed folder.
 fn season_files(
     spec: &RunSpec,
-    plant_spec: &PlantSpec,
     out: &Path,
-    mut built: Built,
-    weather: &Weather,
-    config: &SeasonConfig,
+    prepared: Prepared,
     options: &JobOptions,
 ) -> Result<Metrics, JobError> {
+    let Prepared {
+        mut built,
+        plant_spec,
+        weather,
+        config,
+    } = prepared;
     let plant = built.plant.clone();
-    let steps = config.steps;
-    let mut writer = TrajectoryWriter::create(out, &plant, steps, options.verbose)?;
+    let mut writer = TrajectoryWriter::create(out, &plant, config.steps, options.verbose)?;
     let result = run_season(
         &plant,
-        weather,
+        &weather,
         built.controller.as_mut(),
-        config,
+        &config,
         &mut writer,
     );
     writer.finish(result.is_ok())?;

@@ -12,7 +12,9 @@ The season ends after ``days`` days; the step index is part of the observation, 
 end is part of the problem and is reported as ``terminated``.
 
 ``ghm.VecEnv`` steps many environments of one model inside Rust with one call per batch;
-``ghm.load`` returns a model's declarations (names, units, bounds). A model that does not
+``ghm.load`` returns a model's declarations (names, units, bounds). ``ghm.Mpc``,
+``ghm.RlMpc``, ``ghm.Policy``, ``ghm.Expert``, ``ghm.simulate`` and ``ghm.optimum`` run
+ghm's seasons and controllers (:mod:`ghm.control`). A model that does not
 check raises :class:`ghm.ModelError` with ghm's diagnostics (file, line and column).
 """
 
@@ -27,8 +29,22 @@ from gymnasium import spaces
 
 from . import _ghm
 from ._ghm import ModelError, load
+from .control import Controller, Expert, Mpc, Policy, RlMpc, Season, optimum, simulate
 
-__all__ = ["Env", "VecEnv", "ModelError", "load"]
+__all__ = [
+    "Env",
+    "VecEnv",
+    "ModelError",
+    "load",
+    "Season",
+    "Controller",
+    "Mpc",
+    "RlMpc",
+    "Policy",
+    "Expert",
+    "simulate",
+    "optimum",
+]
 
 
 def _path(value: Optional[os.PathLike | str]) -> Optional[str]:

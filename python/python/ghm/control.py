@@ -1,0 +1,205 @@
+"""ghm's seasons and controllers from Python.
+
+A season here is the season the command with the same settings runs (``ghm simulate``,
+``ghm policy``, ``ghm mpc``, ``ghm rlmpc``, ``ghm optimum``), to the last bit, returned
+in memory as a :class:`Season`: the columns of ``trajectory.csv`` as NumPy arrays and the
+metrics of ``summary.json``.
+
+>>> mpc = ghm.Mpc("models/lettuce.ghm", horizon="6h")
+>>> season = mpc.season(weather="venlo.csv", start_row=1394, days=40)
+>>> season.metrics["cumulative_reward"], season["u_heating"]
+
+A controller also decides one step at a time (keeping its warm start between calls), for
+use inside your own loop or against a real plant::
+
+    u, record = mpc.decide(step, state, previous_input, forecast)
+
+Settings are checked by ghm: a misspelt option, a missing agent or a bad model raises
+``ValueError`` (:class:`ghm.ModelError` for a model) with ghm's message.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from typing import Any, Optional
+
+import numpy as np
+
+from . import _ghm
+
+__all__ = ["Season", "Controller", "Mpc", "RlMpc", "Policy", "Expert", "simulate", "optimum"]
+
+
+class Season:
+    """One season: ``columns`` (name → array, as ``trajectory.csv``; ``status``,
+    ``fallback`` and ``terminal_region`` as lists of strings) and ``metrics`` (as
+    ``summary.json``'s: ``epi``, ``cumulative_reward``, ``bands``, ``solve``, ...)."""
+
+    def __init__(self, names, data, texts, metrics_json: str):
+        self.columns: dict[str, Any] = {name: data[:, i] for i, name in enumerate(names)}
+        for name, values in zip(("status", "fallback", "terminal_region"), texts):
+            self.columns[name] = values
+        self.metrics: dict[str, Any] = json.loads(metrics_json)
+
+    def __getitem__(self, name: str):
+        return self.columns[name]
+
+    def __len__(self) -> int:
+        return len(self.columns["k"])
+
+    def __repr__(self) -> str:
+        return (
+            f"Season({len(self)} steps, cumulative reward "
+            f"{self.metrics.get('cumulative_reward')}, EPI {self.metrics.get('epi')})"
+        )
+
+
+def _spec(
+    model,
+    controller: dict,
+    weather=None,
+    start_row: int = 0,
+    days: Optional[float] = 40.0,
+    steps: Optional[int] = None,
+    uncertainty: float = 0.0,
+    seed: int = 4,
+    weather_seed: int = 2014,
+    knmi=None,
+) -> str:
+    return json.dumps(
+        {
+            "model": os.fspath(model),
+            "weather": {
+                "weather": None if weather is None else os.fspath(weather),
+                "knmi": None if knmi is None else os.fspath(knmi),
+                "start_row": int(start_row),
+                "weather_seed": int(weather_seed),
+                "days": None if steps is not None else (None if days is None else float(days)),
+                "steps": None if steps is None else int(steps),
+            },
+            "plant": {"uncertainty": float(uncertainty), "seed": int(seed)},
+            "controller": controller,
+        }
+    )
+
+
+def _season(model, controller: dict, **season) -> Season:
+    return Season(*_ghm.season(_spec(model, controller, **season)))
+
+
+def simulate(model, inputs: Optional[str] = None, *, enforce_limits: bool = True, **season) -> Season:
+    """A season with fixed inputs (``ghm simulate``): ``inputs`` is ``"const:u1,u2,..."``,
+    a CSV file, or ``None`` for the model's start input. ``season``: ``weather``,
+    ``start_row``, ``days`` or ``steps``, ``uncertainty``, ``seed``, ``weather_seed``."""
+    return _season(
+        model,
+        {"kind": "inputs", "inputs": None if inputs is None else os.fspath(inputs), "enforce_limits": enforce_limits},
+        **season,
+    )
+
+
+def optimum(model, *, init_horizon: str = "1h", solver: Optional[str] = None, max_iterations: int = 500, **season) -> Season:
+    """The season as one NLP with perfect foresight (``ghm optimum``), on the nominal plant."""
+    return _season(
+        model,
+        {"kind": "optimum", "init_horizon": init_horizon, "solver": solver, "max_iterations": max_iterations},
+        **season,
+    )
+
+
+class Controller:
+    """A controller of ghm: a season of it, or its decisions one step at a time."""
+
+    def __init__(self, model, controller: dict):
+        self.model = os.fspath(model)
+        self.settings = dict(controller)
+        self._raw: Optional[Any] = None
+        # Checked now, so that a bad setting fails where it is written.
+        self._stepper()
+
+    def season(self, **season) -> Season:
+        """The season the command with these settings runs: ``weather``, ``start_row``,
+        ``days`` or ``steps``, ``uncertainty``, ``seed``, ``weather_seed``."""
+        return _season(self.model, self.settings, **season)
+
+    def _stepper(self, uncertainty: float = 0.0):
+        if self._raw is None:
+            self._raw = _ghm.RawController(_spec(self.model, self.settings, uncertainty=uncertainty))
+        return self._raw
+
+    @property
+    def forecast_rows(self) -> int:
+        """Rows of weather forecast a decision reads (the horizon; 0 for a policy)."""
+        return self._stepper().forecast_rows()
+
+    def decide(self, step: int, state, previous_input, forecast):
+        """The input for step ``step`` at ``state`` after ``previous_input``, with the
+        weather ``forecast`` (rows × disturbances, row 0 = now; MPC reads
+        ``forecast_rows`` rows and repeats the last where fewer are given), and a record
+        of how it was found (``solve_ms``, ``iterations``, ``status``, ``fallback``, ...)."""
+        as_array = lambda v: np.ascontiguousarray(v, dtype=np.float64)
+        forecast = np.atleast_2d(as_array(forecast))
+        return self._stepper().decide(int(step), as_array(state), as_array(previous_input), forecast)
+
+    def reset(self) -> None:
+        """Forget the past (warm starts, plans)."""
+        self._stepper().reset()
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self.model!r}, {self.settings!r})"
+
+
+class Mpc(Controller):
+    """Economic MPC (``ghm mpc``)."""
+
+    def __init__(self, model, horizon: str = "3h", solver: str = "ipm", bands: str = "auto"):
+        super().__init__(model, {"kind": "mpc", "horizon": horizon, "solver": solver, "bands": bands})
+
+
+class RlMpc(Controller):
+    """RL-guided MPC (``ghm rlmpc``): the guide's terminal cost, region and warm start."""
+
+    def __init__(
+        self,
+        model,
+        horizon: str = "1h",
+        guide: str = "sac",
+        agent=None,
+        value=None,
+        variant: str = "rlmpc",
+        epsilon: float = 0.05,
+        terminal_cost: str = "exact",
+        solver: str = "ipm",
+        bands: str = "auto",
+    ):
+        super().__init__(
+            model,
+            {
+                "kind": "rlmpc",
+                "horizon": horizon,
+                "guide": guide,
+                "agent": None if agent is None else os.fspath(agent),
+                "value": None if value is None else os.fspath(value),
+                "variant": variant,
+                "epsilon": float(epsilon),
+                "terminal_cost": terminal_cost,
+                "solver": solver,
+                "bands": bands,
+            },
+        )
+
+
+class Policy(Controller):
+    """A trained policy (``ghm policy``): a ``ghm train`` folder or policy file, or the
+    agent shipped for the model."""
+
+    def __init__(self, model, agent=None):
+        super().__init__(model, {"kind": "policy", "agent": None if agent is None else os.fspath(agent)})
+
+
+class Expert(Controller):
+    """The rule-based expert (``ghm policy --expert``)."""
+
+    def __init__(self, model):
+        super().__init__(model, {"kind": "expert"})
