@@ -14,7 +14,9 @@ end is part of the problem and is reported as ``terminated``.
 ``ghm.VecEnv`` steps many environments of one model inside Rust with one call per batch;
 ``ghm.load`` returns a model's declarations (names, units, bounds). ``ghm.Mpc``,
 ``ghm.RlMpc``, ``ghm.Policy``, ``ghm.Expert``, ``ghm.simulate`` and ``ghm.optimum`` run
-ghm's seasons and controllers (:mod:`ghm.control`). A model that does not
+ghm's seasons and controllers (:mod:`ghm.control`); ``ghm.read_policy``,
+``ghm.write_policy`` and ``ghm.from_sb3`` carry agents between Python and ghm
+(:mod:`ghm.policy`). A model that does not
 check raises :class:`ghm.ModelError` with ghm's diagnostics (file, line and column).
 """
 
@@ -30,6 +32,7 @@ from gymnasium import spaces
 from . import _ghm
 from ._ghm import ModelError, load
 from .control import Controller, Expert, Mpc, Policy, RlMpc, Season, optimum, simulate
+from .policy import from_sb3, policy_action, read_policy, write_policy
 
 __all__ = [
     "Env",
@@ -44,6 +47,10 @@ __all__ = [
     "Expert",
     "simulate",
     "optimum",
+    "read_policy",
+    "write_policy",
+    "policy_action",
+    "from_sb3",
 ]
 
 
