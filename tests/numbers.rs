@@ -382,11 +382,11 @@ fn weather_outside_its_physical_range_or_with_a_duplicated_column_is_refused() {
 // ---- arguments too large to allocate -----------------------------------------------------
 
 #[test]
-fn season_and_horizon_lengths_are_checked_before_anything_is_allocated() {
+fn season_horizon_and_training_sizes_are_checked_before_anything_is_allocated() {
     let dir = temp_dir("numbers-args");
     let out = dir.to_str().unwrap();
     let max = u64::MAX.to_string();
-    let cases: [(&[&str], &str); 5] = [
+    let cases: [(&[&str], &str); 8] = [
         (
             &["simulate", "--days", "1e20"],
             "a season has at most 10000000 steps",
@@ -406,6 +406,28 @@ fn season_and_horizon_lengths_are_checked_before_anything_is_allocated() {
         (
             &["simulate", "--steps", "2", "--start-row", &max],
             "the first row must be at most 10000000",
+        ),
+        (
+            &["train", "--episodes", &max, "--steps", "2"],
+            "a training has at most 100000 episodes",
+        ),
+        (
+            &[
+                "value",
+                "--guide",
+                "expert",
+                "--trajectories",
+                &max,
+                "--steps",
+                "2",
+            ],
+            "at most 10000000 trajectories",
+        ),
+        (
+            &[
+                "value", "--guide", "expert", "--epochs", &max, "--steps", "2",
+            ],
+            "1000000 epochs",
         ),
     ];
     for (args, message) in cases {

@@ -83,6 +83,9 @@ impl Season {
     }
 }
 
+/// The most episodes of one training (a 40-day lettuce episode is 1 920 steps).
+const MAX_EPISODES: usize = 100_000;
+
 pub fn run(args: &TrainArgs) -> Result<(), CliError> {
     if args.checkpoint_every == 0 {
         return Err(CliError::Argument(
@@ -136,6 +139,12 @@ pub fn run(args: &TrainArgs) -> Result<(), CliError> {
                 eval_episodes: if season.stochastic { 3 } else { 1 },
                 ..SacConfig::default()
             };
+            if config.episodes > MAX_EPISODES {
+                return Err(CliError::Argument(format!(
+                    "--episodes {}: a training has at most {MAX_EPISODES} episodes",
+                    config.episodes
+                )));
+            }
             if config.warmup_episodes >= config.episodes {
                 return Err(CliError::Argument(format!(
                     "--warmup {} is not fewer than --episodes {}: the training would end before it learns anything",

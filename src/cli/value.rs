@@ -55,6 +55,11 @@ pub struct ValueArgs {
     pub overwrite: bool,
 }
 
+/// The most guide roll-outs one fit may sample.
+const MAX_TRAJECTORIES: usize = 10_000_000;
+/// The most training epochs of one fit.
+const MAX_EPOCHS: usize = 1_000_000;
+
 pub fn run(args: &ValueArgs) -> Result<(), CliError> {
     if !(args.spread >= 0.0 && args.spread < 1.0) {
         return Err(CliError::Argument("--spread must be in [0, 1)".into()));
@@ -63,6 +68,13 @@ pub fn run(args: &ValueArgs) -> Result<(), CliError> {
         return Err(CliError::Argument(
             "--trajectories and --epochs must be at least 1".into(),
         ));
+    }
+    // Refused before anything is allocated for them (the samples, the learning curve).
+    if args.trajectories > MAX_TRAJECTORIES || args.epochs > MAX_EPOCHS {
+        return Err(CliError::Argument(format!(
+            "--trajectories {} / --epochs {}: at most {MAX_TRAJECTORIES} trajectories and {MAX_EPOCHS} epochs",
+            args.trajectories, args.epochs
+        )));
     }
     let model = load_model(&args.file)?;
     let plant = Arc::new(Plant::new(model));
