@@ -1,7 +1,7 @@
 //! `ghm study`: every season of a study file, in parallel, resumable, into one folder.
 
 use crate::cli::CliError;
-use crate::study::{run_study, Shard, StudyError, StudyOptions};
+use crate::study::{run_study, Shard, StudyOptions};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -42,12 +42,7 @@ pub fn run(args: &StudyArgs) -> Result<(), CliError> {
         retry_failed: args.retry_failed,
     };
     let result = run_study(&args.file, &args.out, &options);
-    let outcome = match &result {
-        Ok(o) => Some(o.clone()),
-        Err(StudyError::JobsFailed { .. }) => None,
-        Err(_) => None,
-    };
-    if let Some(o) = outcome {
+    if let Ok(o) = &result {
         println!(
             "{} jobs: {} run now, {} done before; {} results in {}",
             o.total,
