@@ -10,12 +10,10 @@
 //!
 //! All scratch space lives in [`Derivatives`], sized once: evaluation does not allocate.
 
-use super::{Real, Tape, Workspace};
-use num_dual::DualSVec64;
+use super::lanes::{Lanes, LANES};
+use super::{Op, Real, Tape, Workspace};
 
-/// Number of directional derivatives carried by one forward pass.
-pub const LANES: usize = 8;
-type Lane = DualSVec64<LANES>;
+type Lane = Lanes<f64>;
 
 /// Results of one derivative evaluation, in buffers owned by [`Derivatives`].
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -42,7 +40,7 @@ pub struct Derivatives {
 }
 
 fn lane(d: &Lane, l: usize) -> f64 {
-    d.eps.0.as_ref().map_or(0.0, |v| v[l])
+    d.eps.0[l]
 }
 
 impl Derivatives {
@@ -163,6 +161,26 @@ pub(crate) fn reverse_sweep<T: Real>(
         let g = adjoint[ins.out as usize];
         let [a, b, c] = ins.args;
         let (va, vb, vc) = (v[a as usize].re(), v[b as usize].re(), v[c as usize].re());
+        // The linear ops pass the adjoint on as it is: no product of duals needed.
+        match ins.op {
+            Op::Add | Op::Sub => {
+                adjoint[a as usize] += g;
+                if ins.op == Op::Add {
+                    adjoint[b as usize] += g;
+                } else {
+                    adjoint[b as usize] -= g;
+                }
+                live[a as usize] = true;
+                live[b as usize] = true;
+                continue;
+            }
+            Op::Neg => {
+                adjoint[a as usize] -= g;
+                live[a as usize] = true;
+                continue;
+            }
+            _ => {}
+        }
         if let Some(k) = ins.op.passed_on(va, vb, vc) {
             // ∂/∂taken = 1; nothing else (an `if`'s condition is piecewise constant).
             let taken = ins.args[k] as usize;

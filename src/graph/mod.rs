@@ -48,11 +48,13 @@
 //! ```
 
 mod derivative;
+mod lanes;
 mod op;
 mod sparsity;
 mod tape;
 
-pub use derivative::{gradient_f64, Derivatives, Evaluation, LANES};
+pub use derivative::{gradient_f64, Derivatives, Evaluation};
+pub use lanes::{LaneVector, Lanes, LANES};
 pub use op::{Op, Real};
 pub use sparsity::Sparsity;
 pub use tape::{Tape, Workspace};
