@@ -192,6 +192,10 @@ fn a_study_runs_every_job_once_and_resumes_after_a_kill() {
     );
     let png = std::fs::read(report.join("lettuce.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");
+    let svg = std::fs::read_to_string(report.join("lettuce.svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.contains("RL-MPC"), "{svg}");
+    let times = std::fs::read_to_string(report.join("lettuce-solve-times.csv")).unwrap();
+    assert!(times.starts_with("controller,horizon,horizon_h,median_ms,max_ms\n"));
     let (ok, _, err) = ghm(&["report", k, "--out", report.to_str().unwrap()]);
     assert!(ok, "{err}");
     let (ok, _, err) = ghm(&["report", "examples", "--out", report.to_str().unwrap()]);
@@ -233,22 +237,63 @@ fn a_bad_study_or_shard_is_refused_with_a_clear_message() {
 }
 
 #[test]
-fn shards_split_the_jobs_and_together_make_the_whole_study() {
+fn shards_split_the_jobs_and_merged_give_the_tables_of_the_whole_study_to_the_byte() {
     let out = temp_dir("study-shards");
-    let o = out.to_str().unwrap();
+    let study = "examples/studies/tiny.toml";
+    let mut folders = Vec::new();
     for shard in ["0/2", "1/2"] {
+        let folder = out.join(format!("shard-{}", &shard[..1]));
         let (ok, stdout, err) = ghm(&[
             "study",
-            "examples/studies/tiny.toml",
+            study,
             "--out",
-            o,
+            folder.to_str().unwrap(),
             "--shard",
             shard,
             "--threads",
             "1",
         ]);
         assert!(ok, "{stdout}\n{err}");
+        let done = results(&folder).len();
+        assert!(0 < done && done < TINY_JOBS, "shard {shard}: {done} jobs");
+        folders.push(folder);
     }
-    assert_eq!(results(&out).len(), TINY_JOBS);
+    let whole = out.join("whole");
+    let (ok, stdout, err) = ghm(&["study", study, "--out", whole.to_str().unwrap()]);
+    assert!(ok, "{stdout}\n{err}");
+
+    let merged = out.join("merged-report");
+    let (ok, stdout, err) = ghm(&[
+        "report",
+        folders[1].to_str().unwrap(),
+        folders[0].to_str().unwrap(),
+        "--out",
+        merged.to_str().unwrap(),
+    ]);
+    assert!(ok, "{stdout}\n{err}");
+    let single = out.join("whole-report");
+    let (ok, stdout, err) = ghm(&[
+        "report",
+        whole.to_str().unwrap(),
+        "--out",
+        single.to_str().unwrap(),
+    ]);
+    assert!(ok, "{stdout}\n{err}");
+    let read = |dir: &Path, file: &str| std::fs::read(dir.join(file)).unwrap();
+    // The table of results, byte for byte, though the shards were named in reverse.
+    assert_eq!(read(&merged, "lettuce.csv"), read(&single, "lettuce.csv"));
+    // Every job's row, in the same order, but for the solve times no two runs share.
+    let without_times = |dir: &Path| -> Vec<String> {
+        String::from_utf8(read(dir, "results.csv"))
+            .unwrap()
+            .lines()
+            .map(|l| {
+                let f: Vec<&str> = l.split(',').collect();
+                [&f[..11], &f[14..]].concat().join(",")
+            })
+            .collect()
+    };
+    assert_eq!(without_times(&merged), without_times(&single));
+    assert_eq!(without_times(&single).len(), TINY_JOBS + 1);
     let _ = std::fs::remove_dir_all(&out);
 }

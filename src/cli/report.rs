@@ -38,7 +38,7 @@ pub fn run(args: &ReportArgs) -> Result<(), CliError> {
         outcome
             .models
             .iter()
-            .map(|m| format!("{m}.csv, {m}.png"))
+            .map(|m| format!("{m}.csv, {m}-solve-times.csv, {m}.png, {m}.svg"))
             .collect::<Vec<_>>()
             .join(", ")
     );

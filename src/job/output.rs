@@ -284,6 +284,7 @@ pub fn plot_trajectory(
                 values: logs.iter().map(|l| l.outputs[i]).collect(),
             }],
             band,
+            spreads: Vec::new(),
         });
     }
     for (i, u) in m.inputs.iter().enumerate() {
@@ -302,6 +303,7 @@ pub fn plot_trajectory(
                 values: logs.iter().map(|l| l.input[i]).collect(),
             }],
             band: None,
+            spreads: Vec::new(),
         });
     }
     panels.push(Panel {
@@ -312,6 +314,7 @@ pub fn plot_trajectory(
             values: logs.iter().map(|l| l.cumulative_reward).collect(),
         }],
         band: None,
+        spreads: Vec::new(),
     });
     let fig = Figure {
         title: title.to_string(),

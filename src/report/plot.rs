@@ -1,8 +1,10 @@
-//! Plots: PNG figures of season trajectories and learning curves.
+//! Plots: figures of season trajectories, learning curves and study reports, as PNG
+//! (and, for figures meant for papers, SVG).
 //!
 //! Drawing uses `plotters` with its bitmap backend and the `ab_glyph` text
 //! renderer; the DejaVu Sans font is embedded in the binary and registered
-//! once as `"sans-serif"`, so no system font library is needed. Non-finite
+//! once as `"sans-serif"`, so no system font library is needed. The SVG backend writes
+//! its text as text, in the viewer's sans-serif. Non-finite
 //! values (and magnitudes beyond 1e100) are skipped, leaving gaps in the lines.
 
 use plotters::coord::Shift;
@@ -74,6 +76,21 @@ pub struct Panel {
     pub lines: Vec<Line>,
     /// A shaded band (the soft constraint's [lo, hi]); either side may be infinite (then shade to the panel edge).
     pub band: Option<(f64, f64)>,
+    /// Shaded ranges around lines (e.g. the minimum and maximum over scenarios), each in
+    /// its line's colour.
+    pub spreads: Vec<Spread>,
+}
+
+/// A range around one line of a panel, shaded in that line's colour: at each x, from
+/// `lower` to `upper` (a non-finite side leaves a gap).
+#[derive(Debug, Clone)]
+pub struct Spread {
+    /// Index of the line in [`Panel::lines`].
+    pub line: usize,
+    /// Lower edge, one value per x.
+    pub lower: Vec<f64>,
+    /// Upper edge, one value per x.
+    pub upper: Vec<f64>,
 }
 
 /// A figure of panels stacked vertically (or in a grid of 2 columns when there are more than 4 panels) over a shared x axis.
@@ -111,12 +128,14 @@ pub struct Figure {
 ///             unit: "°C".into(),
 ///             lines: vec![Line { label: "temp".into(), values: temperature }],
 ///             band: Some((10.0, 20.0)),
+///             spreads: Vec::new(),
 ///         },
 ///         Panel {
 ///             title: "heating".into(),
 ///             unit: "W m⁻²".into(),
 ///             lines: vec![Line { label: "heating".into(), values: heating }],
 ///             band: None,
+///             spreads: Vec::new(),
 ///         },
 ///     ],
 /// };
@@ -133,14 +152,61 @@ pub struct Figure {
 /// # }
 /// ```
 pub fn draw_png(figure: &Figure, path: &Path) -> Result<(), PlotError> {
+    let root = prepare(path, BitMapBackend::new(path, figure_size(figure, path)?))?;
+    draw_figure(&root, figure, path)
+}
+
+/// Draws `figure` into an SVG at `path`, laid out as [`draw_png`] lays it out.
+///
+/// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// use ghm::report::plot::{draw_svg, Figure, Line, Panel, Spread};
+///
+/// let figure = Figure {
+///     title: "reward against horizon".into(),
+///     x_label: "horizon (h)".into(),
+///     x: vec![1.0, 2.0, 3.0],
+///     panels: vec![Panel {
+///         title: "cumulative reward".into(),
+///         unit: "EUR m⁻²".into(),
+///         lines: vec![Line { label: "MPC".into(), values: vec![3.1, 3.3, 3.35] }],
+///         band: None,
+///         spreads: vec![Spread { line: 0, lower: vec![3.0, 3.2, 3.3], upper: vec![3.2, 3.4, 3.4] }],
+///     }],
+/// };
+/// let path = std::env::temp_dir().join(format!("ghm-doc-plot-{}.svg", std::process::id()));
+/// draw_svg(&figure, &path)?;
+/// let svg = std::fs::read_to_string(&path)?;
+/// assert!(svg.starts_with("<svg") && svg.contains("reward against horizon"));
+/// std::fs::remove_file(&path)?;
+/// # Ok(())
+/// # }
+/// ```
+pub fn draw_svg(figure: &Figure, path: &Path) -> Result<(), PlotError> {
+    let root = prepare(path, SVGBackend::new(path, figure_size(figure, path)?))?;
+    draw_figure(&root, figure, path)
+}
+
+/// The figure's size in pixels: [`WIDTH`] wide, a row of panels per [`ROW_HEIGHT`].
+fn figure_size(figure: &Figure, path: &Path) -> Result<(u32, u32), PlotError> {
     let n = figure.panels.len();
     let cols = if n > 4 { 2 } else { 1 };
     let rows = n.div_ceil(cols).max(1);
     if rows > MAX_ROWS {
         return Err(fail(path, format!("too many panels ({n})")));
     }
-    let height = TITLE_HEIGHT + ROW_HEIGHT * rows as u32 + 20;
-    let root = prepare(path, (WIDTH, height))?;
+    Ok((WIDTH, TITLE_HEIGHT + ROW_HEIGHT * rows as u32 + 20))
+}
+
+/// Draws `figure`'s title and panels (one column, or two past four panels) on `root`.
+fn draw_figure<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    figure: &Figure,
+    path: &Path,
+) -> Result<(), PlotError> {
+    let n = figure.panels.len();
+    let cols = if n > 4 { 2 } else { 1 };
+    let rows = n.div_ceil(cols).max(1);
     let body = root
         .margin(10, 0, 0, 0)
         .titled(&figure.title, ("sans-serif", 26))
@@ -187,12 +253,13 @@ pub fn draw_xy(
     lines: &[Line],
     path: &Path,
 ) -> Result<(), PlotError> {
-    let root = prepare(path, (1000, 600))?;
+    let root = prepare(path, BitMapBackend::new(path, (1000, 600)))?;
     let panel = Panel {
         title: title.to_string(),
         unit: y_label.to_string(),
         lines: lines.to_vec(),
         band: None,
+        spreads: Vec::new(),
     };
     let legend = lines.len() > 1;
     draw_panel(&root, &panel, x_label, x, range(x), legend, path)?;
@@ -207,11 +274,11 @@ fn fail(path: &Path, e: impl std::fmt::Display) -> PlotError {
     }
 }
 
-/// Registers the embedded font (once) and opens a white bitmap at `path`.
-fn prepare(
+/// Registers the embedded font (once) and clears `backend` (writing to `path`) to white.
+fn prepare<DB: DrawingBackend>(
     path: &Path,
-    size: (u32, u32),
-) -> Result<DrawingArea<BitMapBackend<'_>, Shift>, PlotError> {
+    backend: DB,
+) -> Result<DrawingArea<DB, Shift>, PlotError> {
     static REGISTERED: OnceLock<bool> = OnceLock::new();
     let ok = *REGISTERED.get_or_init(|| {
         plotters::style::register_font("sans-serif", FontStyle::Normal, FONT).is_ok()
@@ -219,7 +286,7 @@ fn prepare(
     if !ok {
         return Err(fail(path, "embedded font is invalid"));
     }
-    let root = BitMapBackend::new(path, size).into_drawing_area();
+    let root = backend.into_drawing_area();
     root.fill(&WHITE).map_err(|e| fail(path, e))?;
     Ok(root)
 }
@@ -256,6 +323,17 @@ fn segments(x: &[f64], y: &[f64]) -> Vec<Vec<(f64, f64)>> {
     runs.filter(|r| !r.is_empty()).map(<[_]>::to_vec).collect()
 }
 
+/// The contiguous runs of (x, lower, upper) where all three are plottable.
+fn spread_runs(x: &[f64], spread: &Spread) -> Vec<Vec<(f64, f64, f64)>> {
+    let triples: Vec<(f64, f64, f64)> = x
+        .iter()
+        .zip(spread.lower.iter().zip(&spread.upper))
+        .map(|(&a, (&lo, &hi))| (a, lo, hi))
+        .collect();
+    let runs = triples.split(|&(a, lo, hi)| !(plottable(a) && plottable(lo) && plottable(hi)));
+    runs.filter(|r| !r.is_empty()).map(<[_]>::to_vec).collect()
+}
+
 /// Formats an axis tick compactly (no trailing zeros, scientific when extreme).
 fn tick(v: &f64) -> String {
     let a = v.abs();
@@ -272,8 +350,8 @@ fn tick(v: &f64) -> String {
 }
 
 /// Draws one panel (title, band, lines) into `area`, with its legend in a right-hand column when `legend`.
-fn draw_panel(
-    area: &DrawingArea<BitMapBackend<'_>, Shift>,
+fn draw_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
     panel: &Panel,
     x_label: &str,
     x: &[f64],
@@ -293,7 +371,13 @@ fn draw_panel(
             .lines
             .iter()
             .flat_map(|l| &l.values)
-            .chain(&band_edges),
+            .chain(&band_edges)
+            .chain(
+                panel
+                    .spreads
+                    .iter()
+                    .flat_map(|s| s.lower.iter().chain(&s.upper)),
+            ),
     );
     let mut chart = ChartBuilder::on(&area)
         .caption(&panel.title, ("sans-serif", 20))
@@ -322,6 +406,21 @@ fn draw_panel(
             let band = Rectangle::new([(x_lo, lo), (x_hi, hi)], fill);
             chart
                 .draw_series(std::iter::once(band))
+                .map_err(|e| fail(path, e))?;
+        }
+    }
+    for spread in &panel.spreads {
+        let color = PALETTE[spread.line % PALETTE.len()];
+        for run in spread_runs(x, spread) {
+            // The upper edge left to right, the lower edge back: one closed polygon.
+            let outline: Vec<(f64, f64)> = run
+                .iter()
+                .map(|&(a, _, hi)| (a, hi))
+                .chain(run.iter().rev().map(|&(a, lo, _)| (a, lo)))
+                .collect();
+            let shade = Polygon::new(outline, color.mix(0.18).filled());
+            chart
+                .draw_series(std::iter::once(shade))
                 .map_err(|e| fail(path, e))?;
         }
     }
@@ -399,6 +498,7 @@ mod tests {
             unit,
             lines,
             band,
+            spreads: Vec::new(),
         }
     }
 

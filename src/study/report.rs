@@ -3,12 +3,12 @@
 //! cumulative reward against the horizon on the nominal plant, and their mean, minimum and
 //! maximum over the stochastic scenarios, with failed solves and solve times; the season
 //! optimum and the controllers without a horizon beside them. Every table is a CSV, every
-//! figure a PNG drawn from the same rows, and `report.md` puts them together.
+//! figure a PNG and an SVG drawn from the same rows, and `report.md` puts them together.
 
 use crate::job::folder;
 use crate::job::output::{figure, io_err, write_atomically};
 use crate::report::atomic;
-use crate::report::plot::{draw_png, Figure, Line, Panel};
+use crate::report::plot::{draw_png, draw_svg, Figure, Line, Panel, Spread};
 use crate::study::StudyError;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -48,10 +48,14 @@ pub struct JobRow {
     pub unit: String,
     /// The job's folder, relative to its study folder.
     pub folder: String,
+    /// Its place in its study's plan (`study.json`): rows are reported in plan order.
+    pub plan_index: usize,
 }
 
 /// The complete jobs of the study folders `dirs` (each with its `study.json`), the first
-/// folder's job kept where two hold the same (model, controller, horizon, scenario).
+/// folder's job kept where two hold the same (model, controller, horizon, scenario), in
+/// the order of their plans: the shards of a study, merged, give the rows of the study
+/// run whole, in the same order.
 pub fn gather(dirs: &[PathBuf]) -> Result<Vec<JobRow>, StudyError> {
     let mut rows: Vec<JobRow> = Vec::new();
     for dir in dirs {
@@ -63,7 +67,7 @@ pub fn gather(dirs: &[PathBuf]) -> Result<Vec<JobRow>, StudyError> {
                 path: plan_path.clone(),
                 message: "no readable study.json: is this the --out folder of `ghm study`?".into(),
             })?;
-        for job in plan["jobs"].as_array().into_iter().flatten() {
+        for (plan_index, job) in plan["jobs"].as_array().into_iter().flatten().enumerate() {
             let text = |key: &str| job[key].as_str().unwrap_or_default().to_string();
             let job_dir = dir.join(text("folder"));
             if !matches!(folder::recorded(&job_dir), Some((s, _)) if s == "complete") {
@@ -94,6 +98,7 @@ pub fn gather(dirs: &[PathBuf]) -> Result<Vec<JobRow>, StudyError> {
                 max_ms: number(&m["solve"]["max_ms"]),
                 unit: summary["unit"].as_str().unwrap_or_default().to_string(),
                 folder: text("folder"),
+                plan_index,
             };
             let same = |r: &JobRow| {
                 (&r.model, &r.controller, &r.horizon, &r.scenario)
@@ -104,6 +109,9 @@ pub fn gather(dirs: &[PathBuf]) -> Result<Vec<JobRow>, StudyError> {
             }
         }
     }
+    // Stable: where plans differ, a folder's rows stay before the next folder's at equal
+    // places.
+    rows.sort_by_key(|r| r.plan_index);
     Ok(rows)
 }
 
@@ -178,7 +186,8 @@ pub struct ReportOutcome {
 }
 
 /// Writes the report of `rows` into `out`: `results.csv` (every job), per model
-/// `<model>.csv` (its table) and `<model>.png` (its figure), and `report.md`.
+/// `<model>.csv` (its table), `<model>-solve-times.csv` and `<model>.png` and `.svg` (its
+/// figure), and `report.md`.
 pub fn write_report(rows: &[JobRow], out: &Path) -> Result<ReportOutcome, StudyError> {
     std::fs::create_dir_all(out).map_err(io_err(out))?;
     let mut models: BTreeMap<&str, Vec<&JobRow>> = BTreeMap::new();
@@ -247,18 +256,20 @@ cumulative_reward,failed_solves,median_ms,p95_ms,max_ms,folder\n",
     Ok(())
 }
 
-/// `<model>.csv`: the model's table.
+/// `<model>.csv`: the model's table of results, which the same seasons reproduce to the
+/// byte (shards merged or the study run whole); `<model>-solve-times.csv`: the solve
+/// times beside it, which no two runs share.
 fn write_model_csv(out: &Path, model: &str, lines: &[TableLine]) -> Result<(), StudyError> {
     let mut text = String::from(
         "controller,horizon,horizon_h,epi,cumulative_reward,stochastic_seasons,epi_mean,epi_min,epi_max,\
-reward_mean,reward_min,reward_max,failed_solves,median_ms,max_ms\n",
+reward_mean,reward_min,reward_max,failed_solves\n",
     );
     for l in lines {
         let (epi, reward) = l.nominal.unwrap_or((f64::NAN, f64::NAN));
         let e = spread(l.stochastic.iter().map(|s| s.0)).unwrap_or((f64::NAN, f64::NAN, f64::NAN));
         let r = spread(l.stochastic.iter().map(|s| s.1)).unwrap_or((f64::NAN, f64::NAN, f64::NAN));
         text.push_str(&format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             csv(&l.controller),
             csv(&l.horizon),
             l.horizon_h.map_or(String::new(), |h| format!("{h}")),
@@ -272,18 +283,30 @@ reward_mean,reward_min,reward_max,failed_solves,median_ms,max_ms\n",
             number(r.1),
             number(r.2),
             l.failed_solves,
-            number(l.median_ms),
-            number(l.max_ms)
         ));
     }
     let path = out.join(format!("{model}.csv"));
     atomic::write(&path, text).map_err(io_err(&path))?;
+    let mut times = String::from("controller,horizon,horizon_h,median_ms,max_ms\n");
+    for l in lines {
+        times.push_str(&format!(
+            "{},{},{},{},{}\n",
+            csv(&l.controller),
+            csv(&l.horizon),
+            l.horizon_h.map_or(String::new(), |h| format!("{h}")),
+            number(l.median_ms),
+            number(l.max_ms)
+        ));
+    }
+    let path = out.join(format!("{model}-solve-times.csv"));
+    atomic::write(&path, times).map_err(io_err(&path))?;
     Ok(())
 }
 
-/// `<model>.png`: EPI and cumulative reward against the horizon, nominal and (where there
-/// are stochastic scenarios) their mean, minimum and maximum; a controller without a
-/// horizon (the optimum, a policy) is a flat line.
+/// `<model>.png` and `<model>.svg`: EPI and cumulative reward against the horizon on the
+/// nominal plant and (where there are stochastic scenarios) their mean, shaded from the
+/// minimum to the maximum; a controller without a horizon (the optimum, a policy) is a
+/// flat line.
 fn draw_model(
     out: &Path,
     model: &str,
@@ -325,40 +348,52 @@ fn draw_model(
             .collect()
     };
     let unit = lines_unit.to_string();
+    let nominal_panel = |title: &str, pick: fn((f64, f64)) -> f64| Panel {
+        title: title.into(),
+        unit: unit.clone(),
+        lines: series(&|l| l.nominal.map(pick)),
+        band: None,
+        spreads: Vec::new(),
+    };
     let mut panels = vec![
-        Panel {
-            title: "EPI, nominal plant".into(),
-            unit: unit.clone(),
-            lines: series(&|l| l.nominal.map(|n| n.0)),
-            band: None,
-        },
-        Panel {
-            title: "cumulative reward, nominal plant".into(),
-            unit: unit.clone(),
-            lines: series(&|l| l.nominal.map(|n| n.1)),
-            band: None,
-        },
+        nominal_panel("EPI, nominal plant", |n| n.0),
+        nominal_panel("cumulative reward, nominal plant", |n| n.1),
     ];
     if lines.iter().any(|l| !l.stochastic.is_empty()) {
-        let stat = |pick: fn((f64, f64)) -> f64, which: usize| {
-            move |l: &TableLine| {
-                spread(l.stochastic.iter().map(|s| pick(*s))).map(|m| [m.0, m.1, m.2][which])
+        // Each controller's mean over the scenarios, shaded from its minimum to its maximum.
+        let stochastic_panel = |title: &str, pick: fn((f64, f64)) -> f64| {
+            let stat = |which: usize| {
+                move |l: &TableLine| {
+                    spread(l.stochastic.iter().map(|s| pick(*s))).map(|m| [m.0, m.1, m.2][which])
+                }
+            };
+            let lower = series(&stat(1));
+            let upper = series(&stat(2));
+            Panel {
+                title: title.into(),
+                unit: unit.clone(),
+                lines: series(&stat(0)),
+                band: None,
+                spreads: lower
+                    .into_iter()
+                    .zip(upper)
+                    .enumerate()
+                    .map(|(line, (lo, hi))| Spread {
+                        line,
+                        lower: lo.values,
+                        upper: hi.values,
+                    })
+                    .collect(),
             }
         };
-        for (title, which) in [("mean", 0), ("minimum", 1), ("maximum", 2)] {
-            panels.push(Panel {
-                title: format!("cumulative reward, stochastic {title}"),
-                unit: unit.clone(),
-                lines: series(&stat(|s| s.1, which)),
-                band: None,
-            });
-        }
-        panels.push(Panel {
-            title: "EPI, stochastic mean".into(),
-            unit: unit.clone(),
-            lines: series(&stat(|s| s.0, 0)),
-            band: None,
-        });
+        panels.push(stochastic_panel(
+            "EPI, stochastic: mean, shaded from minimum to maximum",
+            |s| s.0,
+        ));
+        panels.push(stochastic_panel(
+            "cumulative reward, stochastic: mean, shaded from minimum to maximum",
+            |s| s.1,
+        ));
     }
     let fig = Figure {
         title: format!("{model}: against the prediction horizon"),
@@ -368,6 +403,9 @@ fn draw_model(
     };
     write_atomically(&out.join(format!("{model}.png")), |path| {
         draw_png(&fig, path)
+    })?;
+    write_atomically(&out.join(format!("{model}.svg")), |path| {
+        draw_svg(&fig, path)
     })?;
     Ok(())
 }
@@ -449,6 +487,7 @@ mod tests {
             max_ms: 4.0,
             unit: "€".into(),
             folder: String::new(),
+            plan_index: 0,
         }
     }
 
