@@ -187,8 +187,39 @@ fn a_study_runs_every_job_once_and_resumes_after_a_kill() {
     assert_eq!(field(mpc_2h, 5), "2", "two stochastic seasons: {mpc_2h}");
     let md = std::fs::read_to_string(report.join("report.md")).unwrap();
     assert!(
-        md.contains("![lettuce](lettuce.png)") && md.contains("| RL-MPC | 2h |"),
+        md.contains("![lettuce: against the prediction horizon](lettuce.svg)")
+            && md.contains("| nominal plant | 1h | 2h |")
+            && md.contains("| RL-MPC reward |"),
         "{md}"
+    );
+    // The same tables spliced into a document between its markers, the prose kept.
+    let document = whole.join("results.md");
+    std::fs::write(
+        &document,
+        "Prose.\n<!-- begin ghm report report -->\nold\n<!-- end ghm report report -->\nMore.\n",
+    )
+    .unwrap();
+    let (ok, out, err) = ghm(&[
+        "report",
+        w,
+        "--out",
+        report.to_str().unwrap(),
+        "--into",
+        document.to_str().unwrap(),
+    ]);
+    assert!(ok, "{out}\n{err}");
+    let spliced = std::fs::read_to_string(&document).unwrap();
+    assert!(
+        spliced.starts_with("Prose.\n<!-- begin ghm report report -->\n"),
+        "{spliced}"
+    );
+    assert!(
+        spliced.ends_with("<!-- end ghm report report -->\nMore.\n"),
+        "{spliced}"
+    );
+    assert!(
+        spliced.contains("](report/lettuce.svg)") && !spliced.contains("\nold\n"),
+        "{spliced}"
     );
     let png = std::fs::read(report.join("lettuce.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");

@@ -1,9 +1,10 @@
 //! `ghm report`: the tables and figures of study folders, merged.
 
 use crate::cli::CliError;
-use crate::study::{gather, write_report};
+use crate::report::atomic;
+use crate::study::{gather, report_markdown, splice, write_report};
 use clap::Args;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(Debug, Args)]
 pub struct ReportArgs {
@@ -14,6 +15,11 @@ pub struct ReportArgs {
     /// figure.
     #[arg(long, value_name = "DIR", default_value = "runs/report")]
     pub out: PathBuf,
+    /// Also put the report's tables into this markdown document, between its lines
+    /// `<!-- begin ghm report NAME -->` and `<!-- end ghm report NAME -->`, NAME being the
+    /// --out folder as seen from the document's folder (how docs/results.md is made).
+    #[arg(long, value_name = "FILE")]
+    pub into: Option<PathBuf>,
 }
 
 pub fn run(args: &ReportArgs) -> Result<(), CliError> {
@@ -42,5 +48,33 @@ pub fn run(args: &ReportArgs) -> Result<(), CliError> {
             .collect::<Vec<_>>()
             .join(", ")
     );
+    if let Some(document) = &args.into {
+        let name = relative_to_document(document, &args.out);
+        let text = std::fs::read_to_string(document)
+            .map_err(|e| CliError::Argument(format!("cannot read {}: {e}", document.display())))?;
+        let generated = report_markdown(&rows, &format!("{name}/"));
+        let text = splice(&text, &name, &generated)
+            .map_err(|e| CliError::Argument(format!("{} {e}", document.display())))?;
+        atomic::write(document, text)
+            .map_err(|e| CliError::Argument(format!("cannot write {}: {e}", document.display())))?;
+        println!("tables and figures of {name} → {}", document.display());
+    }
     Ok(())
+}
+
+/// `out` as a link from `document`'s folder sees it: relative where `out` lies under that
+/// folder, else as given.
+fn relative_to_document(document: &Path, out: &Path) -> String {
+    let folder = document
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let (Ok(folder), Ok(out_full)) = (folder.canonicalize(), out.canonicalize()) else {
+        return out.display().to_string();
+    };
+    match out_full.strip_prefix(&folder) {
+        Ok(p) if p.as_os_str().is_empty() => ".".into(),
+        Ok(p) => p.display().to_string(),
+        Err(_) => out.display().to_string(),
+    }
 }

@@ -9,12 +9,14 @@
 //! holds anything else — an interrupted run, a run of another spec — is run afresh. The
 //! results of every complete job are gathered into `results.csv`.
 
+pub mod markdown;
 pub mod plan;
 pub mod report;
 pub mod run;
 
+pub use markdown::splice;
 pub use plan::{plan, Job};
-pub use report::{gather, write_report, JobRow, ReportOutcome};
+pub use report::{gather, report_markdown, write_report, JobRow, ReportOutcome};
 pub use run::{run_study, Shard, StudyOptions, StudyOutcome};
 
 use std::path::PathBuf;
