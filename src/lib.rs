@@ -38,6 +38,7 @@ pub mod nlp;
 pub mod nn;
 pub mod report;
 pub mod rl;
+pub mod serve;
 pub mod sim;
 pub mod solve;
 pub mod study;

@@ -6,8 +6,10 @@ mod check;
 mod mpc;
 mod optimum;
 mod policy;
+mod replay;
 mod report;
 mod rlmpc;
+mod serve;
 mod simulate;
 mod study;
 mod train;
@@ -82,6 +84,10 @@ enum Command {
     Study(study::StudyArgs),
     /// Tables and figures of study folders (runs or shards), merged.
     Report(report::ReportArgs),
+    /// Serve a controller over HTTP/JSON, every decision journaled (docs/serve.md).
+    Serve(serve::ServeArgs),
+    /// Run a season against a running `ghm serve`, the simulator playing the greenhouse.
+    Replay(replay::ReplayArgs),
 }
 
 /// Runs the command line; returns the process exit code.
@@ -98,6 +104,8 @@ pub fn main() -> i32 {
         Command::Rlmpc(a) => rlmpc::run(&a),
         Command::Study(a) => study::run(&a),
         Command::Report(a) => report::run(&a),
+        Command::Serve(a) => serve::run(&a),
+        Command::Replay(a) => replay::run(&a),
     };
     match result {
         Ok(()) => 0,

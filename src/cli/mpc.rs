@@ -8,20 +8,18 @@ use crate::job::{
 use clap::Args;
 use std::path::PathBuf;
 
+/// `ghm mpc`'s default horizon.
+pub const DEFAULT_HORIZON: &str = "3h";
+
 #[derive(Debug, Args)]
 pub struct MpcArgs {
     /// The model file (.ghm).
     pub file: PathBuf,
     /// Prediction horizon: `3h`, `90min`, or a number of steps (at most 100 000).
-    #[arg(long, value_name = "H", default_value = "3h")]
+    #[arg(long, value_name = "H", default_value = DEFAULT_HORIZON)]
     pub horizon: String,
-    /// NLP back-end.
-    #[arg(long, value_enum, default_value_t = SolverChoice::Ipm)]
-    pub solver: SolverChoice,
-    /// Soft-band bounds to plan with: `auto` plans with the model file's `plan` bounds on
-    /// an uncertain plant and with the scoring bounds on the nominal one.
-    #[arg(long, value_enum, default_value_t = BandsChoice::Auto)]
-    pub bands: BandsChoice,
+    #[command(flatten)]
+    pub nlp: NlpArgs,
     #[command(flatten)]
     pub weather: WeatherSpec,
     #[command(flatten)]
@@ -34,16 +32,35 @@ pub struct MpcArgs {
     pub overwrite: bool,
 }
 
+/// The NLP back-end and the bands MPC plans with (`ghm mpc`, `ghm rlmpc`, `ghm serve`).
+#[derive(Debug, Clone, Args)]
+pub struct NlpArgs {
+    /// NLP back-end.
+    #[arg(long, value_enum, default_value_t = SolverChoice::Ipm)]
+    pub solver: SolverChoice,
+    /// Soft-band bounds to plan with: `auto` plans with the model file's `plan` bounds on
+    /// an uncertain plant and with the scoring bounds on the nominal one.
+    #[arg(long, value_enum, default_value_t = BandsChoice::Auto)]
+    pub bands: BandsChoice,
+}
+
+impl NlpArgs {
+    /// MPC over `horizon` with these settings.
+    pub fn mpc(&self, horizon: &str) -> MpcSpec {
+        MpcSpec {
+            horizon: horizon.to_string(),
+            solver: self.solver,
+            bands: self.bands,
+        }
+    }
+}
+
 pub fn run(args: &MpcArgs) -> Result<(), CliError> {
     let spec = RunSpec {
         model: args.file.clone(),
         weather: args.weather.clone(),
         plant: args.plant.clone(),
-        controller: ControllerSpec::Mpc(MpcSpec {
-            horizon: args.horizon.clone(),
-            solver: args.solver,
-            bands: args.bands,
-        }),
+        controller: ControllerSpec::Mpc(args.nlp.mpc(&args.horizon)),
     };
     let options = JobOptions {
         overwrite: args.overwrite,

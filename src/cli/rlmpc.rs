@@ -4,22 +4,49 @@
 //! uses the agent and value network shipped for the model under `models/agents/`.
 //! `--compare` also runs plain MPC at the same horizon and prints both.
 
+use crate::cli::mpc::NlpArgs;
 use crate::cli::CliError;
 use crate::job::output::figure;
 use crate::job::{
-    run_season_job, BandsChoice, ControllerSpec, CostForm, GuideChoice, JobOptions, MpcSpec,
-    PlantSpec, RlmpcSpec, RunSpec, SolverChoice, Variant, WeatherSpec,
+    run_season_job, ControllerSpec, CostForm, GuideChoice, JobOptions, PlantSpec, RlmpcSpec,
+    RunSpec, Variant, WeatherSpec,
 };
 use clap::Args;
 use std::path::PathBuf;
+
+/// `ghm rlmpc`'s default horizon.
+pub const DEFAULT_HORIZON: &str = "1h";
 
 #[derive(Debug, Args)]
 pub struct RlmpcArgs {
     /// The model file (.ghm).
     pub file: PathBuf,
     /// Prediction horizon: `1h`, `90min`, `1800s` or a number of steps.
-    #[arg(long, value_name = "H", default_value = "1h")]
+    #[arg(long, value_name = "H", default_value = DEFAULT_HORIZON)]
     pub horizon: String,
+    #[command(flatten)]
+    pub guidance: GuideArgs,
+    #[command(flatten)]
+    pub nlp: NlpArgs,
+    #[command(flatten)]
+    pub weather: WeatherSpec,
+    #[command(flatten)]
+    pub plant: PlantSpec,
+    /// Also run plain MPC at the same horizon (into OUT/mpc) and print both.
+    #[arg(long)]
+    pub compare: bool,
+    /// Run folder.
+    #[arg(long, value_name = "DIR", default_value = "runs/rlmpc")]
+    pub out: PathBuf,
+    /// Replace the files of an earlier run in the --out folder (otherwise refused).
+    #[arg(long)]
+    pub overwrite: bool,
+}
+
+/// The guide, its value network, the terminal region and the terminal cost of RL-guided
+/// MPC (`ghm rlmpc`, `ghm serve`).
+#[derive(Debug, Clone, Args)]
+pub struct GuideArgs {
     /// The guide.
     #[arg(long, value_enum, default_value_t = GuideChoice::Sac)]
     pub guide: GuideChoice,
@@ -37,39 +64,27 @@ pub struct RlmpcArgs {
     pub epsilon: f64,
     #[arg(long, value_enum, default_value_t = CostForm::Exact)]
     pub terminal_cost: CostForm,
-    /// The NLP back-end.
-    #[arg(long, value_enum, default_value_t = SolverChoice::Ipm)]
-    pub solver: SolverChoice,
-    /// Soft-band bounds to plan with (as `ghm mpc --bands`).
-    #[arg(long, value_enum, default_value_t = BandsChoice::Auto)]
-    pub bands: BandsChoice,
-    #[command(flatten)]
-    pub weather: WeatherSpec,
-    #[command(flatten)]
-    pub plant: PlantSpec,
-    /// Also run plain MPC at the same horizon (into OUT/mpc) and print both.
-    #[arg(long)]
-    pub compare: bool,
-    /// Run folder.
-    #[arg(long, value_name = "DIR", default_value = "runs/rlmpc")]
-    pub out: PathBuf,
-    /// Replace the files of an earlier run in the --out folder (otherwise refused).
-    #[arg(long)]
-    pub overwrite: bool,
+}
+
+impl GuideArgs {
+    /// RL-guided MPC over `horizon` with these settings and `nlp`'s.
+    pub fn rlmpc(&self, horizon: &str, nlp: &NlpArgs) -> RlmpcSpec {
+        RlmpcSpec {
+            horizon: horizon.to_string(),
+            solver: nlp.solver,
+            bands: nlp.bands,
+            guide: self.guide,
+            agent: self.agent.clone(),
+            value: self.value.clone(),
+            variant: self.variant,
+            epsilon: self.epsilon,
+            terminal_cost: self.terminal_cost,
+        }
+    }
 }
 
 pub fn run(args: &RlmpcArgs) -> Result<(), CliError> {
-    let rlmpc = RlmpcSpec {
-        horizon: args.horizon.clone(),
-        solver: args.solver,
-        bands: args.bands,
-        guide: args.guide,
-        agent: args.agent.clone(),
-        value: args.value.clone(),
-        variant: args.variant,
-        epsilon: args.epsilon,
-        terminal_cost: args.terminal_cost,
-    };
+    let rlmpc = args.guidance.rlmpc(&args.horizon, &args.nlp);
     let spec = |controller| RunSpec {
         model: args.file.clone(),
         weather: args.weather.clone(),
@@ -81,11 +96,7 @@ pub fn run(args: &RlmpcArgs) -> Result<(), CliError> {
         verbose: true,
     };
     let label = rlmpc.label();
-    let plain = ControllerSpec::Mpc(MpcSpec {
-        horizon: args.horizon.clone(),
-        solver: args.solver,
-        bands: args.bands,
-    });
+    let plain = ControllerSpec::Mpc(args.nlp.mpc(&args.horizon));
     let guided = run_season_job(&spec(ControllerSpec::Rlmpc(rlmpc)), &args.out, &options)?;
     if args.compare {
         println!();

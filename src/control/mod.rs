@@ -62,6 +62,16 @@ pub struct Decision {
     pub record: StepRecord,
 }
 
+/// The prediction behind a decision: what the controller expects to apply and to see over
+/// its horizon, from the step it decided at.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Plan {
+    /// Inputs `u_0, …, u_{N−1}`; `u_0` is the decision's input (before any clipping).
+    pub inputs: Vec<Vec<f64>>,
+    /// Predicted states `x_1, …, x_N` (`x_0` is the measured state).
+    pub states: Vec<Vec<f64>>,
+}
+
 /// Why a controller could not decide an input.
 #[derive(Debug, Error)]
 pub enum ControlError {
@@ -149,6 +159,11 @@ pub trait Controller {
     fn name(&self) -> String;
     /// The input for the step `observation` describes, and a record of how it was found.
     fn decide(&mut self, observation: &Observation) -> Result<Decision, ControlError>;
+    /// The plan behind the last decision, where it came from a solve at that step; `None`
+    /// for controllers that do not predict (the default), or after a fallback.
+    fn plan(&self) -> Option<Plan> {
+        None
+    }
 }
 
 /// The same input at every step.

@@ -21,7 +21,7 @@
 //! and writes the starting point; its own input is one more fallback, before the held
 //! input.
 
-use super::{ControlError, Controller, Decision, Observation, StepRecord};
+use super::{ControlError, Controller, Decision, Observation, Plan, StepRecord};
 use crate::model::Plant;
 use crate::nlp::{Bands, Nlp, Ocp, OcpError};
 use crate::solve::{Solution, Solver, Start};
@@ -296,6 +296,19 @@ impl Controller for Mpc {
             Some(g) => format!("{}-{}", g.name(), self.solver.name()),
             None => format!("mpc-{}", self.solver.name()),
         }
+    }
+
+    fn plan(&self) -> Option<Plan> {
+        let last = self.last.as_ref().filter(|_| self.last_age == 0)?;
+        let n = self.ocp.horizon();
+        Some(Plan {
+            inputs: (0..n)
+                .map(|j| self.ocp.input(&last.x, j).to_vec())
+                .collect(),
+            states: (1..=n)
+                .map(|j| self.ocp.state_at(&last.x, j).to_vec())
+                .collect(),
+        })
     }
 
     fn decide(&mut self, observation: &Observation) -> Result<Decision, ControlError> {

@@ -67,9 +67,29 @@ struct Prepared {
     config: SeasonConfig,
 }
 
-/// Loads the model and builds everything `spec` names; `out`, if given, is the folder the
-/// season will be written to (refused first where the controller is long to build).
-fn prepare(spec: &RunSpec, out: Option<&Path>, options: &JobOptions) -> Result<Prepared, JobError> {
+/// A controller from outside the job layer (`ghm replay`'s, which asks a `ghm serve`),
+/// to run a season of a spec with in place of the one the spec names; the spec's
+/// controller is what it stands for, recorded in `run.json`.
+pub struct ExternalController {
+    /// The controller.
+    pub controller: Box<dyn Controller>,
+    /// Weather rows it reads ahead (its horizon; 0 without one).
+    pub forecast_rows: usize,
+    /// Its name in tables.
+    pub label: String,
+    /// Fields added to `summary.json`.
+    pub extra: serde_json::Value,
+}
+
+/// Loads the model and builds everything `spec` names (its controller, unless `external`
+/// stands in for it); `out`, if given, is the folder the season will be written to (refused
+/// first where the controller is long to build).
+fn prepare(
+    spec: &RunSpec,
+    out: Option<&Path>,
+    options: &JobOptions,
+    external: Option<ExternalController>,
+) -> Result<Prepared, JobError> {
     let model = load_model(&spec.model)?;
     let plant = Arc::new(Plant::new(model));
     let plant_spec = match spec.controller {
@@ -78,7 +98,17 @@ fn prepare(spec: &RunSpec, out: Option<&Path>, options: &JobOptions) -> Result<P
     };
     let uncertainty = plant_spec.draw()?;
     let steps = spec.weather.steps(&plant.model)?;
-    let built = build(spec, &plant, &plant_spec, steps, out, options)?;
+    let built = match external {
+        Some(e) => Built {
+            plant: plant.clone(),
+            controller: e.controller,
+            label: e.label,
+            extra: e.extra,
+            forecast: e.forecast_rows,
+            enforce_limits: true,
+        },
+        None => build(spec, &plant, &plant_spec, steps, out, options)?,
+    };
     let weather = spec.weather.load(&plant.model, steps, built.forecast)?;
     let config = SeasonConfig {
         steps,
@@ -101,7 +131,32 @@ pub fn run_season_job(
     out: &Path,
     options: &JobOptions,
 ) -> Result<SeasonOutcome, JobError> {
-    let prepared = prepare(spec, Some(out), options)?;
+    run_prepared(spec, out, options, prepare(spec, Some(out), options, None)?)
+}
+
+/// [`run_season_job`] with `external` deciding the inputs in place of the controller the
+/// spec names: the same season, files and folder.
+pub fn run_external_season_job(
+    spec: &RunSpec,
+    external: ExternalController,
+    out: &Path,
+    options: &JobOptions,
+) -> Result<SeasonOutcome, JobError> {
+    run_prepared(
+        spec,
+        out,
+        options,
+        prepare(spec, Some(out), options, Some(external))?,
+    )
+}
+
+/// A prepared season into its claimed folder.
+fn run_prepared(
+    spec: &RunSpec,
+    out: &Path,
+    options: &JobOptions,
+    prepared: Prepared,
+) -> Result<SeasonOutcome, JobError> {
     let run = RunFolder::claim(out, options.overwrite, Some(spec))?;
     let label = prepared.built.label.clone();
     let unit = prepared.built.plant.model.objective_unit();
@@ -131,7 +186,7 @@ pub fn run_season_logs(spec: &RunSpec) -> Result<SeasonLogs, JobError> {
         overwrite: false,
         verbose: false,
     };
-    let mut prepared = prepare(spec, None, &quiet)?;
+    let mut prepared = prepare(spec, None, &quiet, None)?;
     let plant = prepared.built.plant.clone();
     let mut logs = Vec::with_capacity(prepared.config.steps);
     let mut collect = |log: &StepLog| logs.push(log.clone());
