@@ -187,11 +187,16 @@ pub fn draw_svg(figure: &Figure, path: &Path) -> Result<(), PlotError> {
     draw_figure(&root, figure, path)
 }
 
+/// The grid of `n` panels: (columns, rows), one column, or two past four panels.
+fn grid(n: usize) -> (usize, usize) {
+    let cols = if n > 4 { 2 } else { 1 };
+    (cols, n.div_ceil(cols).max(1))
+}
+
 /// The figure's size in pixels: [`WIDTH`] wide, a row of panels per [`ROW_HEIGHT`].
 fn figure_size(figure: &Figure, path: &Path) -> Result<(u32, u32), PlotError> {
     let n = figure.panels.len();
-    let cols = if n > 4 { 2 } else { 1 };
-    let rows = n.div_ceil(cols).max(1);
+    let (_, rows) = grid(n);
     if rows > MAX_ROWS {
         return Err(fail(path, format!("too many panels ({n})")));
     }
@@ -205,8 +210,7 @@ fn draw_figure<DB: DrawingBackend>(
     path: &Path,
 ) -> Result<(), PlotError> {
     let n = figure.panels.len();
-    let cols = if n > 4 { 2 } else { 1 };
-    let rows = n.div_ceil(cols).max(1);
+    let (cols, rows) = grid(n);
     let body = root
         .margin(10, 0, 0, 0)
         .titled(&figure.title, ("sans-serif", 26))

@@ -11,7 +11,7 @@
 //! report's folder as the document's links see it), so that the prose around the tables
 //! stays as written and the tables are regenerated with the figures.
 
-use super::report::TableLine;
+use super::report::{spread, TableLine};
 use crate::job::output::figure;
 
 /// A model's section: `images` is the path from the document to the report's folder
@@ -139,23 +139,8 @@ pub(super) fn model_section(model: &str, lines: &[TableLine], images: &str) -> S
 
 /// `mean [min, max]` of one figure over a line's stochastic seasons.
 fn stochastic_cell(l: &TableLine, pick: fn((f64, f64)) -> f64) -> Option<String> {
-    let v: Vec<f64> = l.stochastic.iter().map(|s| pick(*s)).collect();
-    if v.is_empty() {
-        return None;
-    }
-    let mean = v.iter().sum::<f64>() / v.len() as f64;
-    let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    Some(format!(
-        "{} [{}, {}]",
-        figure(mean, false),
-        format_range(lo),
-        format_range(hi)
-    ))
-}
-
-fn format_range(v: f64) -> String {
-    format!("{v:.3}")
+    let (mean, lo, hi) = spread(l.stochastic.iter().map(|s| pick(*s)))?;
+    Some(format!("{} [{lo:.3}, {hi:.3}]", figure(mean, false)))
 }
 
 /// The horizons of the lines, shortest first.

@@ -180,7 +180,7 @@ fn table(rows: &[&JobRow]) -> Vec<TableLine> {
 }
 
 /// Mean, minimum and maximum.
-fn spread(values: impl Iterator<Item = f64>) -> Option<(f64, f64, f64)> {
+pub(super) fn spread(values: impl Iterator<Item = f64>) -> Option<(f64, f64, f64)> {
     let v: Vec<f64> = values.collect();
     if v.is_empty() {
         return None;
