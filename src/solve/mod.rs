@@ -26,7 +26,7 @@ mod sqp;
 #[cfg(feature = "ipopt")]
 mod ipopt;
 
-pub use ipm::{Ipm, IpmOptions};
+pub use ipm::{Ipm, IpmOptions, MuStrategy};
 pub use kkt::{kkt_residuals, KktResiduals};
 pub use sqp::{Sqp, SqpOptions};
 

@@ -27,10 +27,14 @@
 //!   second-order corrections, and a feasibility restoration by the problem's own
 //!   [`Nlp::restore_feasibility`] (an optimal-control problem re-simulates its states)
 //!   when the step gets too short.
-//! * Barrier parameter: IPOPT's monotone rule (`μ ← max(ε/10, min(μ/5, μ^1.5))` once the
-//!   barrier problem is solved to `10 μ`); a cold start begins at [`IpmOptions::initial_mu`], a warm start
-//!   (multipliers given) at [`IpmOptions::warm_start_mu`], with the point pushed that far
-//!   inside its bounds and the bound multipliers raised to match.
+//! * Barrier parameter ([`MuStrategy`]): a cold start follows IPOPT's adaptive strategy,
+//!   `μ` from Mehrotra's probing every iteration (one factorisation serves the probing
+//!   step, the step itself and Mehrotra's corrector where it reaches farther), with the
+//!   monotone rule as its safeguard; it begins at [`IpmOptions::initial_mu`] with the
+//!   point pushed [`IpmOptions::bound_push`] inside its bounds. A warm start (multipliers
+//!   given) keeps IPOPT's monotone rule (`μ ← max(ε/10, min(μ/5, μ^1.5))` once the barrier
+//!   problem is solved to `10 μ`) from [`IpmOptions::warm_start_mu`], the point pushed
+//!   [`IpmOptions::warm_push`] inside and the bound multipliers raised to match.
 //!
 //! The problem must say its stages ([`Nlp::stages`]); a problem without them ends at once
 //! with [`SolveStatus::NumericalError`]. A line search that finds no acceptable step, and
@@ -74,8 +78,27 @@ pub struct IpmOptions {
     pub bound_push: f64,
     /// How far inside its bounds a warm start is pushed, relative to the bound's size.
     pub warm_push: f64,
+    /// How the barrier parameter falls.
+    pub mu_strategy: MuStrategy,
     /// Print one line per iteration to standard error.
     pub trace: bool,
+}
+
+/// How [`Ipm`] lowers the barrier parameter `μ`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MuStrategy {
+    /// IPOPT's monotone rule: `μ` stays until its barrier problem is solved to `10 μ`,
+    /// then falls by `μ ← max(ε/10, min(μ/5, μ^1.5))`.
+    Monotone,
+    /// IPOPT's adaptive strategy, for cold starts: in its free mode every iteration takes
+    /// `μ` from Mehrotra's probing (the affine-scaling step's complementarity); when the
+    /// optimality error stops falling (not below 0.9999 of one of the last four), the
+    /// monotone rule takes over from `0.8 ×` the average complementarity until its barrier
+    /// problem is solved, and free mode resumes. A warm start keeps the monotone rule:
+    /// measured on the 40-day seasons, probing from a warm start's tiny complementarity
+    /// failed solves that the monotone rule solved, while on cold starts it halved the
+    /// iterations (the season optimum: 60 → 39 and 53 → 29; the first MPC step: 20 → 12).
+    Adaptive,
 }
 
 impl Default for IpmOptions {
@@ -87,8 +110,9 @@ impl Default for IpmOptions {
             acceptable_iterations: 10,
             initial_mu: 1e-3,
             warm_start_mu: 1e-9,
-            bound_push: 1e-2,
+            bound_push: 1e-1,
             warm_push: 1e-7,
+            mu_strategy: MuStrategy::Adaptive,
             trace: false,
         }
     }
@@ -155,20 +179,21 @@ impl Sides {
         }
     }
 
-    /// The barrier of entry `i` at value `v` with bound multipliers `zl`, `zu`: its
-    /// curvature `Σ = zl/(v − lo) + zu/(hi − v)` and its gradient `−μ/(v − lo) + μ/(hi − v)`
-    /// (each side only where its bound is finite).
-    fn barrier(&self, i: usize, v: f64, zl: f64, zu: f64, mu: f64) -> (f64, f64) {
+    /// The barrier of entry `i` at value `v` with bound multipliers `zl`, `zu` and
+    /// complementarity targets `(μ_l, μ_u)`: its curvature `Σ = zl/(v − lo) + zu/(hi − v)`
+    /// and its gradient `−μ_l/(v − lo) + μ_u/(hi − v)` (each side only where its bound is
+    /// finite).
+    fn barrier(&self, i: usize, v: f64, zl: f64, zu: f64, (mu_l, mu_u): (f64, f64)) -> (f64, f64) {
         let (mut sigma, mut gradient) = (0.0, 0.0);
         if self.lower[i].is_finite() {
             let s = self.slack_lower(i, v);
             sigma += zl / s;
-            gradient -= mu / s;
+            gradient -= mu_l / s;
         }
         if self.upper[i].is_finite() {
             let s = self.slack_upper(i, v);
             sigma += zu / s;
-            gradient += mu / s;
+            gradient += mu_u / s;
         }
         (sigma, gradient)
     }
@@ -212,25 +237,25 @@ impl Sides {
         (zl, zu)
     }
 
-    /// The Newton step of entry `i`'s bound multipliers for a primal step `dv`:
-    /// `μ/s − z ∓ (z/s) dv`.
+    /// The Newton step of entry `i`'s bound multipliers for a primal step `dv` and
+    /// complementarity targets `(μ_l, μ_u)`: `μ/s − z ∓ (z/s) dv`.
     fn multiplier_step(
         &self,
         i: usize,
         v: f64,
         dv: f64,
         (zl, zu): (f64, f64),
-        mu: f64,
+        (mu_l, mu_u): (f64, f64),
     ) -> (f64, f64) {
         let dzl = if self.lower[i].is_finite() {
             let s = self.slack_lower(i, v);
-            mu / s - zl - zl / s * dv
+            mu_l / s - zl - zl / s * dv
         } else {
             0.0
         };
         let dzu = if self.upper[i].is_finite() {
             let s = self.slack_upper(i, v);
-            mu / s - zu + zu / s * dv
+            mu_u / s - zu + zu / s * dv
         } else {
             0.0
         };
@@ -696,17 +721,33 @@ impl Ipm {
             vl: vec![0.0; m],
             vu: vec![0.0; m],
         };
+        let mut probe = d.clone();
+        let mut plain = d.clone();
         let mut scratch = vec![0.0; n];
         let mut diag = vec![0.0; n];
-        let mut sigma_t = vec![0.0; m];
-        let mut condensed = vec![0.0; n];
-        let mut residual_i = vec![0.0; m];
+        let mut rhs = Rhs {
+            condensed: vec![0.0; n],
+            sigma_t: vec![0.0; m],
+            row_terms: vec![0.0; m],
+            new_lambda: vec![0.0; m],
+        };
+        let mut plain_rhs = Rhs {
+            condensed: vec![0.0; n],
+            sigma_t: vec![0.0; m],
+            row_terms: vec![0.0; m],
+            new_lambda: vec![0.0; m],
+        };
         let mut trial_w = vec![0.0; n];
         let mut trial_t = vec![0.0; m];
         let mut trial_c = vec![0.0; m];
-        let mut new_lambda = vec![0.0; m];
         let mut dyn_residual = vec![0.0; m];
-        let mut row_terms = vec![0.0; m];
+        let mut residual_i = vec![0.0; m];
+        // A warm start keeps the monotone rule: see [`MuStrategy`].
+        let mut adaptive = (opts.mu_strategy == MuStrategy::Adaptive && !warm).then(|| Adaptive {
+            free: true,
+            references: Vec::new(),
+            mu_max: (1e3 * average_complementarity(&setup, &it)).clamp(mu_min, 1e5),
+        });
 
         for iteration in 0..=max_iterations {
             ev.f = nlp.evaluate_all(
@@ -763,22 +804,29 @@ impl Ipm {
                 };
                 return self.finish(nlp, &setup, it, status, iteration, ev.f, clock);
             }
-            // The barrier problem solved well enough: a smaller μ.
-            while mu > mu_min && error(mu, &it, &mut scratch) <= 10.0 * mu {
-                mu = mu_min.max((0.2 * mu).min(mu.powf(1.5)));
-                filter_fresh = true;
+            // The barrier parameter: IPOPT's monotone rule, or in the adaptive strategy's
+            // free mode Mehrotra's probing (after the factorisation, below), guarded by the
+            // optimality error's progress.
+            if let Some(adaptive) = adaptive.as_mut() {
+                if adaptive.free && !adaptive.progressed(e0) {
+                    adaptive.free = false;
+                    mu = mu_min.max(0.8 * average_complementarity(&setup, &it));
+                    filter_fresh = true;
+                } else if !adaptive.free && error(mu, &it, &mut scratch) <= 10.0 * mu {
+                    adaptive.enter_free_mode(e0);
+                }
+            }
+            if adaptive.as_ref().is_none_or(|a| !a.free) {
+                while mu > mu_min && error(mu, &it, &mut scratch) <= 10.0 * mu {
+                    mu = mu_min.max((0.2 * mu).min(mu.powf(1.5)));
+                    filter_fresh = true;
+                }
             }
             let theta = setup.violation(&ev.c, &it.t);
-            if filter_fresh {
-                filter.reset(theta);
-                filter_fresh = false;
-            }
 
-            // The condensed system.
+            // The condensed matrices: Hessian, barrier curvature, `Jᵀ Σ J` of the rows.
             for i in 0..n {
-                let (sigma, g) = setup.vars.barrier(i, it.w[i], it.zl[i], it.zu[i], mu);
-                diag[i] = sigma;
-                condensed[i] = ev.gradient[i] + g;
+                (diag[i], _) = setup.vars.barrier(i, it.w[i], it.zl[i], it.zu[i], (mu, mu));
             }
             for r in 0..m {
                 residual_i[r] = if setup.is_dynamics[r] {
@@ -786,29 +834,23 @@ impl Ipm {
                 } else {
                     ev.c[r] - it.t[r]
                 };
+                dyn_residual[r] = ev.c[r] - setup.target[r];
             }
-            barrier_row_terms(&setup, &it, mu, &mut sigma_t, &mut row_terms);
-            add_row_gradient(
-                &jp,
-                &ev.jacobian,
+            barrier_row_terms(
                 &setup,
-                &sigma_t,
-                &residual_i,
-                &row_terms,
-                &mut condensed,
+                &it,
+                Targets::plain(mu),
+                &mut rhs.sigma_t,
+                &mut rhs.row_terms,
             );
             map.fill_matrices(
                 riccati,
                 &ev.hessian,
                 &diag,
                 &ev.jacobian,
-                &sigma_t,
+                &rhs.sigma_t,
                 &setup.shift,
             );
-            for r in 0..m {
-                dyn_residual[r] = ev.c[r] - setup.target[r];
-            }
-            map.fill_vectors(riccati, &condensed, &dyn_residual);
             // Stage by stage, else one shift from the failing stage on.
             let corrected = match riccati.factor_corrected() {
                 Ok(count) => Some(count),
@@ -830,32 +872,61 @@ impl Ipm {
             if corrected > 0 {
                 self.corrections += 1;
             }
-            if !riccati.solve() {
-                return self.finish(
-                    nlp,
-                    &setup,
-                    it,
-                    SolveStatus::NumericalError,
-                    iteration,
-                    ev.f,
-                    clock,
-                );
+            let direction = Newton {
+                setup: &setup,
+                jp: &jp,
+                map,
+                ev: &ev,
+                it: &it,
+                residual_i: &residual_i,
+                dyn_residual: &dyn_residual,
+            };
+            // Mehrotra's probing in free mode: the affine-scaling step (μ = 0) to the
+            // boundary, and the complementarity it would leave, `μ_aff`; then `μ = σ μ̄`
+            // with `σ = (μ_aff / μ̄)³` (at most 100), `μ̄` the average complementarity now.
+            let free = adaptive.as_ref().is_some_and(|a| a.free);
+            let probed =
+                !free || direction.solve(riccati, Targets::plain(0.0), &mut rhs, &mut probe);
+            if free && probed {
+                let average = average_complementarity(&setup, &it);
+                let primal = primal_reach(&setup, &it, &probe, 1.0);
+                let dual = dual_reach(&it, &probe, 1.0);
+                let affine = affine_complementarity(&setup, &it, &probe, primal, dual);
+                let sigma = if average > 0.0 {
+                    (affine / average).powi(3).min(100.0)
+                } else {
+                    0.0
+                };
+                let adaptive = adaptive.as_ref().map_or(f64::INFINITY, |a| a.mu_max);
+                let probed = (sigma * average).clamp(mu_min, adaptive);
+                if probed != mu {
+                    mu = probed;
+                    filter_fresh = true;
+                }
             }
-            new_lambda.copy_from_slice(&it.lambda);
-            map.read_solution(riccati, &mut d.w, &mut new_lambda);
-            complete_direction(
-                &setup,
-                &jp,
-                &ev.jacobian,
-                &it,
+            if filter_fresh {
+                filter.reset(theta);
+                filter_fresh = false;
+            }
+            // In free mode Mehrotra's corrector (the predictor's `Δs Δz` taken off the
+            // targets), kept where it descends the barrier objective and reaches farther
+            // to the boundary than the plain step; far from the central path it can point
+            // anywhere.
+            let targets = Targets {
                 mu,
-                &sigma_t,
-                &residual_i,
-                &row_terms,
-                &new_lambda,
-                &mut d,
-            );
-            if !all_finite(&d.w) {
+                predictor: free.then_some(&probe),
+            };
+            let mut ok = probed && direction.solve(riccati, targets, &mut rhs, &mut d);
+            if ok && free {
+                let corrected = reach(&setup, &it, &d);
+                ok = direction.solve(riccati, Targets::plain(mu), &mut plain_rhs, &mut plain);
+                let descends = barrier_slope(&setup, &ev.gradient, &it, &d, mu) < 0.0;
+                if ok && (!descends || reach(&setup, &it, &plain) >= corrected) {
+                    std::mem::swap(&mut d, &mut plain);
+                    std::mem::swap(&mut rhs, &mut plain_rhs);
+                }
+            }
+            if !ok {
                 return self.finish(
                     nlp,
                     &setup,
@@ -867,17 +938,8 @@ impl Ipm {
                 );
             }
             let tau = (1.0 - mu).max(0.99);
-            let alpha_max = max_step(&it.w, &d.w, &setup.vars, tau, |_| true).min(max_step(
-                &it.t,
-                &d.t,
-                &setup.rows,
-                tau,
-                |r| !setup.is_dynamics[r],
-            ));
-            let alpha_dual = max_dual_step(&it.zl, &d.zl, tau)
-                .min(max_dual_step(&it.zu, &d.zu, tau))
-                .min(max_dual_step(&it.vl, &d.vl, tau))
-                .min(max_dual_step(&it.vu, &d.vu, tau));
+            let alpha_max = primal_reach(&setup, &it, &d, tau);
+            let alpha_dual = dual_reach(&it, &d, tau);
 
             // Filter line search.
             let phi = setup.barrier(ev.f, &it.w, &it.t, mu);
@@ -886,11 +948,13 @@ impl Ipm {
                 d.w.iter()
                     .zip(&it.w)
                     .all(|(dw, w)| dw.abs() <= 1e-14 * (1.0 + w.abs()));
-            let alpha_min = filter.min_step(theta, slope);
+            // The filter's smallest step, and never below rounding (near feasibility
+            // the filter's is zero).
+            let alpha_min = filter.min_step(theta, slope).max(1e-16 * alpha_max);
             let mut alpha = alpha_max;
             let mut accepted = None;
             let mut first = true;
-            while alpha >= alpha_min || tiny {
+            while (alpha > 0.0 && alpha >= alpha_min) || tiny {
                 for i in 0..n {
                     trial_w[i] = it.w[i] + alpha * d.w[i];
                 }
@@ -932,8 +996,7 @@ impl Ipm {
                         slope,
                         &filter,
                         mu,
-                        &condensed,
-                        &sigma_t,
+                        &rhs,
                         &residual_i,
                         &mut trial_w,
                         &mut trial_t,
@@ -968,8 +1031,9 @@ impl Ipm {
             }
             if opts.trace {
                 eprintln!(
-                    "ipm {iteration:3} f {:.10e} err {e0:.1e} θ {theta:.1e} μ {mu:.1e} δ {delta:.1e} α {alpha:.2e}",
-                    ev.f
+                    "ipm {iteration:3} f {:.10e} err {e0:.1e} θ {theta:.1e} μ {mu:.1e} δ {delta:.1e} α {alpha:.2e}{}",
+                    ev.f,
+                    if adaptive.as_ref().is_some_and(|a| a.free) { " free" } else { "" }
                 );
             }
             // Take the step (the trial point may be a corrected one).
@@ -1027,8 +1091,7 @@ impl Ipm {
         slope: f64,
         filter: &Filter,
         mu: f64,
-        condensed: &[f64],
-        sigma_t: &[f64],
+        rhs: &Rhs,
         residual_i: &[f64],
         trial_w: &mut [f64],
         trial_t: &mut [f64],
@@ -1054,10 +1117,10 @@ impl Ipm {
         let mut step_t = vec![0.0; m];
         for _ in 0..4 {
             // The condensed gradient with the corrected row residuals.
-            let mut gradient = condensed.to_vec();
+            let mut gradient = rhs.condensed.to_vec();
             for ((&r, &col), &v) in jp.rows.iter().zip(&jp.cols).zip(&ev.jacobian) {
                 if !setup.is_dynamics[r] {
-                    gradient[col] += v * sigma_t[r] * (soc_rows[r] - residual_i[r]);
+                    gradient[col] += v * rhs.sigma_t[r] * (soc_rows[r] - residual_i[r]);
                 }
             }
             map.fill_vectors(riccati, &gradient, &soc_dyn);
@@ -1223,7 +1286,7 @@ fn optimality_error(
 fn barrier_row_terms(
     setup: &Setup,
     it: &Iterate,
-    mu: f64,
+    targets: Targets<'_>,
     sigma_t: &mut [f64],
     row_terms: &mut [f64],
 ) {
@@ -1231,7 +1294,9 @@ fn barrier_row_terms(
         (sigma_t[r], row_terms[r]) = if setup.is_dynamics[r] {
             (0.0, 0.0)
         } else {
-            setup.rows.barrier(r, it.t[r], it.vl[r], it.vu[r], mu)
+            setup
+                .rows
+                .barrier(r, it.t[r], it.vl[r], it.vu[r], targets.row(r))
         };
     }
 }
@@ -1260,7 +1325,7 @@ fn complete_direction(
     jp: &Pattern,
     jacobian: &[f64],
     it: &Iterate,
-    mu: f64,
+    targets: Targets<'_>,
     sigma_t: &[f64],
     residual_i: &[f64],
     row_terms: &[f64],
@@ -1288,13 +1353,13 @@ fn complete_direction(
         (d.vl[r], d.vu[r]) =
             setup
                 .rows
-                .multiplier_step(r, it.t[r], d.t[r], (it.vl[r], it.vu[r]), mu);
+                .multiplier_step(r, it.t[r], d.t[r], (it.vl[r], it.vu[r]), targets.row(r));
     }
     for i in 0..n {
         (d.zl[i], d.zu[i]) =
             setup
                 .vars
-                .multiplier_step(i, it.w[i], d.w[i], (it.zl[i], it.zu[i]), mu);
+                .multiplier_step(i, it.w[i], d.w[i], (it.zl[i], it.zu[i]), targets.var(i));
     }
 }
 
@@ -1302,12 +1367,12 @@ fn complete_direction(
 fn barrier_slope(setup: &Setup, gradient: &[f64], it: &Iterate, d: &Direction, mu: f64) -> f64 {
     let mut slope = 0.0;
     for i in 0..setup.n {
-        let (_, g) = setup.vars.barrier(i, it.w[i], 0.0, 0.0, mu);
+        let (_, g) = setup.vars.barrier(i, it.w[i], 0.0, 0.0, (mu, mu));
         slope += (gradient[i] + g) * d.w[i];
     }
     for r in 0..setup.m {
         if !setup.is_dynamics[r] {
-            let (_, g) = setup.rows.barrier(r, it.t[r], 0.0, 0.0, mu);
+            let (_, g) = setup.rows.barrier(r, it.t[r], 0.0, 0.0, (mu, mu));
             slope += g * d.t[r];
         }
     }
@@ -1369,4 +1434,245 @@ fn restore(nlp: &mut dyn Nlp, setup: &Setup, it: &mut Iterate, kappa: f64, c: &m
     it.w = w;
     it.t = t;
     true
+}
+
+/// The right-hand side of one Newton direction and what completes it.
+struct Rhs {
+    /// The condensed gradient (objective, barriers, inequality rows).
+    condensed: Vec<f64>,
+    /// `Σ_t` per inequality row.
+    sigma_t: Vec<f64>,
+    /// The rows' barrier gradients.
+    row_terms: Vec<f64>,
+    /// The new dynamics multipliers the recursion gives.
+    new_lambda: Vec<f64>,
+}
+
+/// Everything a Newton direction needs once the matrices are factorised: one
+/// factorisation serves the probing step (`μ = 0`) and the step itself.
+struct Newton<'a> {
+    setup: &'a Setup,
+    jp: &'a Pattern,
+    map: &'a StageMap,
+    ev: &'a Eval,
+    it: &'a Iterate,
+    /// `c − t` on inequality rows (0 on dynamics rows).
+    residual_i: &'a [f64],
+    dyn_residual: &'a [f64],
+}
+
+impl Newton<'_> {
+    /// The direction for barrier parameter `mu` into `d` (its right-hand side left in
+    /// `rhs` for the second-order corrections); false when the recursion fails or the
+    /// step is not finite.
+    fn solve(
+        &self,
+        riccati: &mut Riccati,
+        targets: Targets<'_>,
+        rhs: &mut Rhs,
+        d: &mut Direction,
+    ) -> bool {
+        let (setup, it, ev) = (self.setup, self.it, self.ev);
+        for i in 0..setup.n {
+            let (_, g) = setup
+                .vars
+                .barrier(i, it.w[i], it.zl[i], it.zu[i], targets.var(i));
+            rhs.condensed[i] = ev.gradient[i] + g;
+        }
+        barrier_row_terms(setup, it, targets, &mut rhs.sigma_t, &mut rhs.row_terms);
+        add_row_gradient(
+            self.jp,
+            &ev.jacobian,
+            setup,
+            &rhs.sigma_t,
+            self.residual_i,
+            &rhs.row_terms,
+            &mut rhs.condensed,
+        );
+        self.map
+            .fill_vectors(riccati, &rhs.condensed, self.dyn_residual);
+        if !riccati.solve() {
+            return false;
+        }
+        rhs.new_lambda.copy_from_slice(&it.lambda);
+        self.map
+            .read_solution(riccati, &mut d.w, &mut rhs.new_lambda);
+        complete_direction(
+            setup,
+            self.jp,
+            &ev.jacobian,
+            it,
+            targets,
+            &rhs.sigma_t,
+            self.residual_i,
+            &rhs.row_terms,
+            &rhs.new_lambda,
+            d,
+        );
+        all_finite(&d.w)
+    }
+}
+
+/// The state of [`MuStrategy::Adaptive`].
+struct Adaptive {
+    /// Free mode (`μ` from probing) or the monotone rule.
+    free: bool,
+    /// The optimality errors of the last free-mode iterations (at most four).
+    references: Vec<f64>,
+    /// The largest `μ` probing may give: 1000 × the starting average complementarity.
+    mu_max: f64,
+}
+
+impl Adaptive {
+    /// IPOPT's progress test of free mode: with four errors remembered, `error` must be
+    /// below 0.9999 of one of them. Remembers `error` when it passes.
+    fn progressed(&mut self, error: f64) -> bool {
+        const REMEMBERED: usize = 4;
+        let progressed = self.references.len() < REMEMBERED
+            || self.references.iter().any(|&r| error <= 0.9999 * r);
+        if progressed {
+            if self.references.len() == REMEMBERED {
+                self.references.remove(0);
+            }
+            self.references.push(error);
+        }
+        progressed
+    }
+
+    /// Back to free mode after the monotone rule solved its barrier problem.
+    fn enter_free_mode(&mut self, error: f64) {
+        self.free = true;
+        self.references.clear();
+        self.references.push(error);
+    }
+}
+
+/// The average `z·s` over every finite bound of the variables and inequality slacks.
+fn average_complementarity(setup: &Setup, it: &Iterate) -> f64 {
+    let mut totals = (0.0, 0usize);
+    let mut add = |z: f64, s: f64| {
+        totals.0 += z * s;
+        totals.1 += 1;
+    };
+    for i in 0..setup.n {
+        let (lo, hi) = (setup.vars.lower[i], setup.vars.upper[i]);
+        if lo.is_finite() {
+            add(it.zl[i], it.w[i] - lo);
+        }
+        if hi.is_finite() {
+            add(it.zu[i], hi - it.w[i]);
+        }
+    }
+    for r in (0..setup.m).filter(|&r| !setup.is_dynamics[r]) {
+        let (lo, hi) = (setup.rows.lower[r], setup.rows.upper[r]);
+        if lo.is_finite() {
+            add(it.vl[r], it.t[r] - lo);
+        }
+        if hi.is_finite() {
+            add(it.vu[r], hi - it.t[r]);
+        }
+    }
+    if totals.1 == 0 {
+        0.0
+    } else {
+        totals.0 / totals.1 as f64
+    }
+}
+
+/// The average complementarity after a step of `primal` along `d`'s primal part and
+/// `dual` along its multipliers.
+fn affine_complementarity(
+    setup: &Setup,
+    it: &Iterate,
+    d: &Direction,
+    primal: f64,
+    dual: f64,
+) -> f64 {
+    let mut totals = (0.0, 0usize);
+    let mut add = |z: f64, dz: f64, s: f64, ds: f64| {
+        totals.0 += (z + dual * dz) * (s + primal * ds);
+        totals.1 += 1;
+    };
+    for i in 0..setup.n {
+        let (lo, hi) = (setup.vars.lower[i], setup.vars.upper[i]);
+        if lo.is_finite() {
+            add(it.zl[i], d.zl[i], it.w[i] - lo, d.w[i]);
+        }
+        if hi.is_finite() {
+            add(it.zu[i], d.zu[i], hi - it.w[i], -d.w[i]);
+        }
+    }
+    for r in (0..setup.m).filter(|&r| !setup.is_dynamics[r]) {
+        let (lo, hi) = (setup.rows.lower[r], setup.rows.upper[r]);
+        if lo.is_finite() {
+            add(it.vl[r], d.vl[r], it.t[r] - lo, d.t[r]);
+        }
+        if hi.is_finite() {
+            add(it.vu[r], d.vu[r], hi - it.t[r], -d.t[r]);
+        }
+    }
+    if totals.1 == 0 {
+        0.0
+    } else {
+        totals.0 / totals.1 as f64
+    }
+}
+
+/// The complementarity targets of one Newton direction: `μ` on every bound, less
+/// Mehrotra's second-order term `Δs Δz` of a predictor step where one is given.
+#[derive(Clone, Copy)]
+struct Targets<'a> {
+    mu: f64,
+    predictor: Option<&'a Direction>,
+}
+
+impl Targets<'_> {
+    /// `μ` on every bound.
+    fn plain(mu: f64) -> Targets<'static> {
+        Targets {
+            mu,
+            predictor: None,
+        }
+    }
+
+    /// The targets `(μ_l, μ_u)` of variable `i`'s bounds (`Δs_l = Δw`, `Δs_u = −Δw`).
+    fn var(&self, i: usize) -> (f64, f64) {
+        match self.predictor {
+            None => (self.mu, self.mu),
+            Some(p) => (self.mu - p.w[i] * p.zl[i], self.mu + p.w[i] * p.zu[i]),
+        }
+    }
+
+    /// The targets `(μ_l, μ_u)` of inequality row `r`'s slack bounds.
+    fn row(&self, r: usize) -> (f64, f64) {
+        match self.predictor {
+            None => (self.mu, self.mu),
+            Some(p) => (self.mu - p.t[r] * p.vl[r], self.mu + p.t[r] * p.vu[r]),
+        }
+    }
+}
+
+/// The largest primal step along `d` ([`max_step`] over the variables and the inequality
+/// slacks) with fraction to the boundary `tau`.
+fn primal_reach(setup: &Setup, it: &Iterate, d: &Direction, tau: f64) -> f64 {
+    max_step(&it.w, &d.w, &setup.vars, tau, |_| true).min(max_step(
+        &it.t,
+        &d.t,
+        &setup.rows,
+        tau,
+        |r| !setup.is_dynamics[r],
+    ))
+}
+
+/// The largest step of every bound multiplier along `d` with fraction `tau`.
+fn dual_reach(it: &Iterate, d: &Direction, tau: f64) -> f64 {
+    max_dual_step(&it.zl, &d.zl, tau)
+        .min(max_dual_step(&it.zu, &d.zu, tau))
+        .min(max_dual_step(&it.vl, &d.vl, tau))
+        .min(max_dual_step(&it.vu, &d.vu, tau))
+}
+
+/// The shorter of the primal and dual steps along `d` to the boundary (fraction 0.99).
+fn reach(setup: &Setup, it: &Iterate, d: &Direction) -> f64 {
+    primal_reach(setup, it, d, 0.99).min(dual_reach(it, d, 0.99))
 }
