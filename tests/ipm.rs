@@ -9,7 +9,7 @@ use ghm::nlp::{Nlp, Ocp, Pattern, Stages, TerminalCost};
 use ghm::sim::metrics::Metrics;
 use ghm::sim::season::{run_season, SeasonConfig, StepLog};
 use ghm::sim::weather::Weather;
-use ghm::solve::{kkt_residuals, Ipm, IpmOptions, SolveStatus, Solver, Sqp, Start};
+use ghm::solve::{kkt_residuals, Ipm, IpmOptions, MuStrategy, SolveStatus, Solver, Sqp, Start};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -292,6 +292,30 @@ fn optimal_on_a_chain_equals_sqp() {
         );
     }
     assert!((ipm.x[chain.u(0)] - 1.0).abs() < 1e-6);
+}
+
+#[test]
+fn both_barrier_strategies_reach_the_same_optimum() {
+    // A cold start probes μ (adaptive) by default; the monotone rule must land on the
+    // same point and multipliers.
+    let mut chain = Chain::new(5, 3.0);
+    let adaptive = solve(&mut chain, IpmOptions::default(), None);
+    let monotone = solve(
+        &mut chain,
+        IpmOptions {
+            mu_strategy: MuStrategy::Monotone,
+            ..IpmOptions::default()
+        },
+        None,
+    );
+    assert_eq!(adaptive.status, SolveStatus::Optimal);
+    assert_eq!(monotone.status, SolveStatus::Optimal);
+    for (a, b) in adaptive.x.iter().zip(&monotone.x) {
+        assert!((a - b).abs() < 1e-6, "{:?} vs {:?}", adaptive.x, monotone.x);
+    }
+    for (a, b) in adaptive.multipliers.iter().zip(&monotone.multipliers) {
+        assert!((a - b).abs() < 1e-6);
+    }
 }
 
 #[test]
