@@ -725,18 +725,8 @@ impl Ipm {
         let mut plain = d.clone();
         let mut scratch = vec![0.0; n];
         let mut diag = vec![0.0; n];
-        let mut rhs = Rhs {
-            condensed: vec![0.0; n],
-            sigma_t: vec![0.0; m],
-            row_terms: vec![0.0; m],
-            new_lambda: vec![0.0; m],
-        };
-        let mut plain_rhs = Rhs {
-            condensed: vec![0.0; n],
-            sigma_t: vec![0.0; m],
-            row_terms: vec![0.0; m],
-            new_lambda: vec![0.0; m],
-        };
+        let mut rhs = Rhs::new(n, m);
+        let mut plain_rhs = Rhs::new(n, m);
         let mut trial_w = vec![0.0; n];
         let mut trial_t = vec![0.0; m];
         let mut trial_c = vec![0.0; m];
@@ -746,7 +736,9 @@ impl Ipm {
         let mut adaptive = (opts.mu_strategy == MuStrategy::Adaptive && !warm).then(|| Adaptive {
             free: true,
             references: Vec::new(),
-            mu_max: (1e3 * average_complementarity(&setup, &it)).clamp(mu_min, 1e5),
+            mu_max: (1e3 * average_complementarity(&setup, &it, None))
+                .min(1e5)
+                .max(mu_min),
         });
 
         for iteration in 0..=max_iterations {
@@ -810,7 +802,7 @@ impl Ipm {
             if let Some(adaptive) = adaptive.as_mut() {
                 if adaptive.free && !adaptive.progressed(e0) {
                     adaptive.free = false;
-                    mu = mu_min.max(0.8 * average_complementarity(&setup, &it));
+                    mu = mu_min.max(0.8 * average_complementarity(&setup, &it, None));
                     filter_fresh = true;
                 } else if !adaptive.free && error(mu, &it, &mut scratch) <= 10.0 * mu {
                     adaptive.enter_free_mode(e0);
@@ -888,19 +880,19 @@ impl Ipm {
             let probed =
                 !free || direction.solve(riccati, Targets::plain(0.0), &mut rhs, &mut probe);
             if free && probed {
-                let average = average_complementarity(&setup, &it);
-                let primal = primal_reach(&setup, &it, &probe, 1.0);
+                let average = average_complementarity(&setup, &it, None);
+                let primal = primal_reach(&setup, &it, &probe.w, &probe.t, 1.0);
                 let dual = dual_reach(&it, &probe, 1.0);
-                let affine = affine_complementarity(&setup, &it, &probe, primal, dual);
+                let affine = average_complementarity(&setup, &it, Some((&probe, primal, dual)));
                 let sigma = if average > 0.0 {
                     (affine / average).powi(3).min(100.0)
                 } else {
                     0.0
                 };
-                let adaptive = adaptive.as_ref().map_or(f64::INFINITY, |a| a.mu_max);
-                let probed = (sigma * average).clamp(mu_min, adaptive);
-                if probed != mu {
-                    mu = probed;
+                let mu_max = adaptive.as_ref().map_or(f64::INFINITY, |a| a.mu_max);
+                let mu_probed = (sigma * average).clamp(mu_min, mu_max);
+                if mu_probed != mu {
+                    mu = mu_probed;
                     filter_fresh = true;
                 }
             }
@@ -938,7 +930,7 @@ impl Ipm {
                 );
             }
             let tau = (1.0 - mu).max(0.99);
-            let alpha_max = primal_reach(&setup, &it, &d, tau);
+            let alpha_max = primal_reach(&setup, &it, &d.w, &d.t, tau);
             let alpha_dual = dual_reach(&it, &d, tau);
 
             // Filter line search.
@@ -1033,7 +1025,7 @@ impl Ipm {
                 eprintln!(
                     "ipm {iteration:3} f {:.10e} err {e0:.1e} θ {theta:.1e} μ {mu:.1e} δ {delta:.1e} α {alpha:.2e}{}",
                     ev.f,
-                    if adaptive.as_ref().is_some_and(|a| a.free) { " free" } else { "" }
+                    if free { " free" } else { "" }
                 );
             }
             // Take the step (the trial point may be a corrected one).
@@ -1140,13 +1132,7 @@ impl Ipm {
                 }
             }
             let tau = (1.0 - mu).max(0.99);
-            let alpha_soc = max_step(&it.w, &step, &setup.vars, tau, |_| true).min(max_step(
-                &it.t,
-                &step_t,
-                &setup.rows,
-                tau,
-                |r| !setup.is_dynamics[r],
-            ));
+            let alpha_soc = primal_reach(setup, it, &step, &step_t, tau);
             for i in 0..n {
                 trial_w[i] = it.w[i] + alpha_soc * step[i];
             }
@@ -1448,6 +1434,18 @@ struct Rhs {
     new_lambda: Vec<f64>,
 }
 
+impl Rhs {
+    /// Zeros for `n` variables and `m` constraint rows.
+    fn new(n: usize, m: usize) -> Rhs {
+        Rhs {
+            condensed: vec![0.0; n],
+            sigma_t: vec![0.0; m],
+            row_terms: vec![0.0; m],
+            new_lambda: vec![0.0; m],
+        }
+    }
+}
+
 /// Everything a Newton direction needs once the matrices are factorised: one
 /// factorisation serves the probing step (`μ = 0`) and the step itself.
 struct Newton<'a> {
@@ -1547,47 +1545,16 @@ impl Adaptive {
     }
 }
 
-/// The average `z·s` over every finite bound of the variables and inequality slacks.
-fn average_complementarity(setup: &Setup, it: &Iterate) -> f64 {
-    let mut totals = (0.0, 0usize);
-    let mut add = |z: f64, s: f64| {
-        totals.0 += z * s;
-        totals.1 += 1;
-    };
-    for i in 0..setup.n {
-        let (lo, hi) = (setup.vars.lower[i], setup.vars.upper[i]);
-        if lo.is_finite() {
-            add(it.zl[i], it.w[i] - lo);
-        }
-        if hi.is_finite() {
-            add(it.zu[i], hi - it.w[i]);
-        }
-    }
-    for r in (0..setup.m).filter(|&r| !setup.is_dynamics[r]) {
-        let (lo, hi) = (setup.rows.lower[r], setup.rows.upper[r]);
-        if lo.is_finite() {
-            add(it.vl[r], it.t[r] - lo);
-        }
-        if hi.is_finite() {
-            add(it.vu[r], hi - it.t[r]);
-        }
-    }
-    if totals.1 == 0 {
-        0.0
-    } else {
-        totals.0 / totals.1 as f64
-    }
-}
-
-/// The average complementarity after a step of `primal` along `d`'s primal part and
+/// The average `z·s` over every finite bound of the variables and inequality slacks, now
+/// or, with `step = (d, primal, dual)`, after a step of `primal` along `d`'s primal part and
 /// `dual` along its multipliers.
-fn affine_complementarity(
+fn average_complementarity(
     setup: &Setup,
     it: &Iterate,
-    d: &Direction,
-    primal: f64,
-    dual: f64,
+    step: Option<(&Direction, f64, f64)>,
 ) -> f64 {
+    let (primal, dual) = step.map_or((0.0, 0.0), |(_, p, q)| (p, q));
+    let along = |part: fn(&Direction) -> &[f64], k: usize| step.map_or(0.0, |(d, _, _)| part(d)[k]);
     let mut totals = (0.0, 0usize);
     let mut add = |z: f64, dz: f64, s: f64, ds: f64| {
         totals.0 += (z + dual * dz) * (s + primal * ds);
@@ -1595,20 +1562,22 @@ fn affine_complementarity(
     };
     for i in 0..setup.n {
         let (lo, hi) = (setup.vars.lower[i], setup.vars.upper[i]);
+        let dw = along(|d| &d.w, i);
         if lo.is_finite() {
-            add(it.zl[i], d.zl[i], it.w[i] - lo, d.w[i]);
+            add(it.zl[i], along(|d| &d.zl, i), it.w[i] - lo, dw);
         }
         if hi.is_finite() {
-            add(it.zu[i], d.zu[i], hi - it.w[i], -d.w[i]);
+            add(it.zu[i], along(|d| &d.zu, i), hi - it.w[i], -dw);
         }
     }
     for r in (0..setup.m).filter(|&r| !setup.is_dynamics[r]) {
         let (lo, hi) = (setup.rows.lower[r], setup.rows.upper[r]);
+        let dt = along(|d| &d.t, r);
         if lo.is_finite() {
-            add(it.vl[r], d.vl[r], it.t[r] - lo, d.t[r]);
+            add(it.vl[r], along(|d| &d.vl, r), it.t[r] - lo, dt);
         }
         if hi.is_finite() {
-            add(it.vu[r], d.vu[r], hi - it.t[r], -d.t[r]);
+            add(it.vu[r], along(|d| &d.vu, r), hi - it.t[r], -dt);
         }
     }
     if totals.1 == 0 {
@@ -1652,12 +1621,12 @@ impl Targets<'_> {
     }
 }
 
-/// The largest primal step along `d` ([`max_step`] over the variables and the inequality
-/// slacks) with fraction to the boundary `tau`.
-fn primal_reach(setup: &Setup, it: &Iterate, d: &Direction, tau: f64) -> f64 {
-    max_step(&it.w, &d.w, &setup.vars, tau, |_| true).min(max_step(
+/// The largest primal step along `dw` (variables) and `dt` (inequality slacks), by
+/// [`max_step`] with fraction to the boundary `tau`.
+fn primal_reach(setup: &Setup, it: &Iterate, dw: &[f64], dt: &[f64], tau: f64) -> f64 {
+    max_step(&it.w, dw, &setup.vars, tau, |_| true).min(max_step(
         &it.t,
-        &d.t,
+        dt,
         &setup.rows,
         tau,
         |r| !setup.is_dynamics[r],
@@ -1674,5 +1643,5 @@ fn dual_reach(it: &Iterate, d: &Direction, tau: f64) -> f64 {
 
 /// The shorter of the primal and dual steps along `d` to the boundary (fraction 0.99).
 fn reach(setup: &Setup, it: &Iterate, d: &Direction) -> f64 {
-    primal_reach(setup, it, d, 0.99).min(dual_reach(it, d, 0.99))
+    primal_reach(setup, it, &d.w, &d.t, 0.99).min(dual_reach(it, d, 0.99))
 }
