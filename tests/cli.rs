@@ -252,6 +252,8 @@ fn mpc_runs_on_builtin_weather_and_reports_solver_statistics() {
     }
     let summary = summary(&dir);
     assert_eq!(summary["horizon_steps"], 2);
+    // The interior point's restart: the shifted plan, multipliers and barrier afresh.
+    assert_eq!(summary["warm_start"], "primal");
     let solve = &summary["metrics"]["solve"];
     assert!(
         solve["median_ms"].as_f64().is_some_and(|v| v > 0.0),
@@ -260,6 +262,44 @@ fn mpc_runs_on_builtin_weather_and_reports_solver_statistics() {
     assert!(solve["max_ms"].as_f64() >= solve["p95_ms"].as_f64());
     assert_eq!(solve["failed_solves"], 0, "{solve}");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `--warm-start primal-dual` restarts each step from the shifted plan and its
+/// multipliers instead: the run says so in its summary, solves every step, and lands on
+/// the same season as the default restart.
+#[test]
+fn mpc_takes_the_primal_dual_restart_on_request() {
+    let reward_with = |restart: Option<&str>| {
+        let dir = temp_dir(&format!("restart-{}", restart.unwrap_or("default")));
+        let d = dir.to_str().expect("utf-8 temp path");
+        let mut args = vec![
+            "mpc",
+            "models/lettuce.ghm",
+            "--days",
+            "1",
+            "--horizon",
+            "2h",
+        ];
+        args.extend(restart.map(|r| ["--warm-start", r]).into_iter().flatten());
+        args.extend(["--out", d]);
+        let (ok, _, err) = ghm(&args);
+        assert!(ok, "{err}");
+        let summary = summary(&dir);
+        assert_eq!(
+            summary["warm_start"],
+            restart.unwrap_or("primal"),
+            "{summary}"
+        );
+        assert_eq!(summary["metrics"]["solve"]["failed_solves"], 0, "{summary}");
+        let reward = summary["metrics"]["cumulative_reward"].as_f64();
+        let _ = std::fs::remove_dir_all(&dir);
+        reward.expect("cumulative reward")
+    };
+    let (primal, primal_dual) = (reward_with(None), reward_with(Some("primal-dual")));
+    assert!(
+        (primal - primal_dual).abs() <= 1e-4,
+        "{primal} vs {primal_dual}"
+    );
 }
 
 /// The figures of `summary.json` are those of the rows of `trajectory.csv`: the season's

@@ -9,7 +9,9 @@ use ghm::nlp::{Nlp, Ocp, Pattern, Stages, TerminalCost};
 use ghm::sim::metrics::Metrics;
 use ghm::sim::season::{run_season, SeasonConfig, StepLog};
 use ghm::sim::weather::Weather;
-use ghm::solve::{kkt_residuals, Ipm, IpmOptions, MuStrategy, SolveStatus, Solver, Sqp, Start};
+use ghm::solve::{
+    kkt_residuals, Ipm, IpmOptions, MuStrategy, SolveStatus, Solver, Sqp, Start, WarmStart,
+};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -18,15 +20,20 @@ fn plant(file: &str) -> Arc<Plant> {
     Arc::new(Plant::new(model))
 }
 
-/// A closed loop of `steps` steps of MPC with `solver` on a plant without weather.
+/// A closed loop of `steps` steps of MPC with `solver` on a plant without weather, each
+/// step restarted as `warm_start` says (`None`: the solver's choice).
 fn closed_loop(
     plant: &Arc<Plant>,
     horizon: usize,
     solver: Box<dyn Solver>,
+    warm_start: Option<WarmStart>,
     steps: usize,
 ) -> Metrics {
     let weather = Weather::constant(vec![], &[], steps + horizon, plant.model.sample_period);
     let mut mpc = Mpc::new(plant.clone(), horizon, solver).unwrap();
+    if let Some(w) = warm_start {
+        mpc.warm_start = w;
+    }
     let config = SeasonConfig {
         steps,
         enforce_limits: true,
@@ -38,31 +45,43 @@ fn closed_loop(
         .metrics
 }
 
+/// MPC of `file` with the interior point, restarted each step from the shifted plan alone
+/// (the default) and from the shifted plan with its multipliers: no failed solve, no
+/// fallback, and SQP's cumulative reward to `relative` of it.
+fn assert_ipm_follows_sqp(file: &str, horizon: usize, steps: usize, relative: f64) {
+    let plant = plant(file);
+    let sqp = closed_loop(&plant, horizon, Box::new(Sqp::default()), None, steps);
+    for restart in [WarmStart::Primal, WarmStart::PrimalDual] {
+        let ipm = closed_loop(
+            &plant,
+            horizon,
+            Box::new(Ipm::default()),
+            Some(restart),
+            steps,
+        );
+        assert_eq!(ipm.solve.failed_solves, 0, "{restart:?}: {:?}", ipm.solve);
+        assert_eq!(ipm.solve.fallbacks, 0, "{restart:?}: {:?}", ipm.solve);
+        let (a, b) = (ipm.cumulative_reward, sqp.cumulative_reward);
+        assert!(
+            (a - b).abs() <= relative * b.abs(),
+            "{restart:?}: IPM {a} vs SQP {b}"
+        );
+    }
+}
+
 #[test]
 fn warm_started_cstr_mpc_matches_sqp() {
     // The CSTR's set-point change across an unstable steady state: the interior point
-    // must follow the same trajectory as SQP (an active-set method) from its warm starts.
-    let plant = plant("models/cstr.ghm");
-    let ipm = closed_loop(&plant, 10, Box::new(Ipm::default()), 40);
-    let sqp = closed_loop(&plant, 10, Box::new(Sqp::default()), 40);
-    assert_eq!(ipm.solve.failed_solves, 0, "{:?}", ipm.solve);
-    assert_eq!(ipm.solve.fallbacks, 0, "{:?}", ipm.solve);
-    let (a, b) = (ipm.cumulative_reward, sqp.cumulative_reward);
-    assert!((a - b).abs() <= 1e-6 * b.abs(), "IPM {a} vs SQP {b}");
+    // must follow the same trajectory as SQP (an active-set method).
+    assert_ipm_follows_sqp("models/cstr.ghm", 10, 40, 1e-6);
 }
 
 #[test]
 fn warm_started_bioreactor_mpc_solves_every_step() {
-    let plant = plant("models/bioreactor.ghm");
-    let ipm = closed_loop(&plant, 12, Box::new(Ipm::default()), 24);
-    let sqp = closed_loop(&plant, 12, Box::new(Sqp::default()), 24);
-    assert_eq!(ipm.solve.failed_solves, 0, "{:?}", ipm.solve);
-    assert_eq!(ipm.solve.fallbacks, 0, "{:?}", ipm.solve);
     // The interior point stops μ/z ≈ 1e-9/z inside active bounds; on the feed (0–0.05
     // L/h, small multipliers) that is a relative 1e-4, and the season's reward differs
     // from SQP's by that order.
-    let (a, b) = (ipm.cumulative_reward, sqp.cumulative_reward);
-    assert!((a - b).abs() <= 1e-3 * b.abs(), "IPM {a} vs SQP {b}");
+    assert_ipm_follows_sqp("models/bioreactor.ghm", 12, 24, 1e-3);
 }
 
 /// `T(x) = w_a (Ca − 0.5)² − w_t (T − 350)²`: a saddle, the kind of indefinite terminal

@@ -3,7 +3,7 @@
 use crate::cli::CliError;
 use crate::job::{
     run_season_job, BandsChoice, ControllerSpec, JobOptions, MpcSpec, PlantSpec, RunSpec,
-    SolverChoice, WeatherSpec,
+    SolverChoice, WarmStartChoice, WeatherSpec,
 };
 use clap::Args;
 use std::path::PathBuf;
@@ -38,6 +38,11 @@ pub struct NlpArgs {
     /// NLP back-end.
     #[arg(long, value_enum, default_value_t = SolverChoice::Ipm)]
     pub solver: SolverChoice,
+    /// How each step restarts from the last one's solution: `primal` (the shifted plan,
+    /// multipliers and barrier afresh; the default of `ipm`) or `primal-dual` (the shifted
+    /// plan and multipliers; the default of `sqp` and `ipopt`).
+    #[arg(long, value_enum)]
+    pub warm_start: Option<WarmStartChoice>,
     /// Soft-band bounds to plan with: `auto` plans with the model file's `plan` bounds on
     /// an uncertain plant and with the scoring bounds on the nominal one.
     #[arg(long, value_enum, default_value_t = BandsChoice::Auto)]
@@ -50,6 +55,7 @@ impl NlpArgs {
         MpcSpec {
             horizon: horizon.to_string(),
             solver: self.solver,
+            warm_start: self.warm_start,
             bands: self.bands,
         }
     }

@@ -72,6 +72,7 @@ impl GuideArgs {
         RlmpcSpec {
             horizon: horizon.to_string(),
             solver: nlp.solver,
+            warm_start: nlp.warm_start,
             bands: nlp.bands,
             guide: self.guide,
             agent: self.agent.clone(),

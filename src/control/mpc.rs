@@ -1,12 +1,16 @@
 //! Economic model-predictive control: at every step, solve the optimal-control problem
 //! over the horizon from the measured state and apply the first input.
 //!
-//! The solve starts from the previous solution shifted by one step (primal and dual). Its
-//! status is checked every step. The warm solve is capped at [`Mpc::warm_iteration_limit`]
-//! iterations (the solver's [`Solver::warm_iteration_budget`]: 15 for SQP, 40 for the
-//! interior-point method): from a shifted solution SQP needs two or three, and one that needs many
-//! more is usually stuck on a flat stretch of the economic cost, where a cold start is the
-//! better use of time. When it fails, the controller falls back, in this order:
+//! The solve starts from the previous solution shifted by one step, as the back-end prefers
+//! ([`Solver::warm_start`], [`Mpc::warm_start`]): the interior point from the shifted primal
+//! point with a fresh barrier ([`WarmStart::Primal`]: about ten iterations every step, none
+//! much longer), SQP from the shifted primal point and multipliers
+//! ([`WarmStart::PrimalDual`]). Its status is checked every step. A primal-dual warm solve
+//! is capped at [`Mpc::warm_iteration_limit`] iterations (the solver's
+//! [`Solver::warm_iteration_budget`]: 15 for SQP, 40 for the interior-point method): from a
+//! shifted solution SQP needs two or three, and one that needs many more is usually stuck on
+//! a flat stretch of the economic cost, where a cold start is the better use of time. When
+//! it fails, the controller falls back, in this order:
 //!
 //! 1. `cold_start`: solve again from the held previous input, simulated (under guidance,
 //!    first from a fresh roll-out of the guide, its terminal region re-centred on it);
@@ -24,7 +28,7 @@
 use super::{ControlError, Controller, Decision, Observation, Plan, StepRecord};
 use crate::model::Plant;
 use crate::nlp::{Bands, Nlp, Ocp, OcpError};
-use crate::solve::{Solution, Solver, Start};
+use crate::solve::{Solution, Solver, Start, WarmStart};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -64,7 +68,10 @@ pub struct Mpc {
     start_x: Vec<f64>,
     start_lambda: Vec<f64>,
     start_nu: Vec<f64>,
-    /// Iteration cap of the warm-started solve before the cold start takes over.
+    /// How each step restarts from the previous one's solution (default: the back-end's
+    /// [`Solver::warm_start`]).
+    pub warm_start: WarmStart,
+    /// Iteration cap of a primal-dual warm solve before the cold start takes over.
     pub warm_iteration_limit: Option<usize>,
     guidance: Option<Box<dyn Guidance>>,
 }
@@ -87,6 +94,7 @@ impl Mpc {
             start_x: vec![0.0; n],
             start_lambda: vec![0.0; m],
             start_nu: vec![0.0; n],
+            warm_start: solver.warm_start(),
             warm_iteration_limit: Some(solver.warm_iteration_budget()),
             solver,
             guidance: None,
@@ -156,6 +164,12 @@ impl Mpc {
         }
         if !primal_ready {
             self.ocp.shift_primal(&last.x, &mut self.start_x);
+        }
+        if self.warm_start == WarmStart::Primal {
+            return Some(
+                self.solver
+                    .solve(&mut self.ocp, Start::shifted(&self.start_x)),
+            );
         }
         self.ocp
             .shift_multipliers(&last.multipliers, &mut self.start_lambda);

@@ -3,7 +3,7 @@
 //! the value network, fixed inputs.
 
 use crate::control::{ConstantInput, Controller, Expert, InputTable, Mpc, Policy, ValueFile};
-use crate::job::spec::{GuideChoice, RlmpcSpec, SolverChoice};
+use crate::job::spec::{GuideChoice, RlmpcSpec, SolverChoice, WarmStartChoice};
 use crate::job::weather::WeatherSpec;
 use crate::job::JobError;
 use crate::model::Plant;
@@ -13,18 +13,23 @@ use crate::solve::{Ipm, Solver, Sqp};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-/// MPC of `plant` over `horizon` steps with the chosen back-end and bands.
+/// MPC of `plant` over `horizon` steps with the chosen back-end, restart and bands.
 pub fn make_mpc(
     plant: &Arc<Plant>,
     horizon: usize,
     solver: SolverChoice,
+    warm_start: Option<WarmStartChoice>,
     bands: Bands,
 ) -> Result<Mpc, JobError> {
     let fail = |e: crate::nlp::OcpError| JobError::Spec(e.to_string());
-    Mpc::new(plant.clone(), horizon, make_solver(solver)?)
+    let mut mpc = Mpc::new(plant.clone(), horizon, make_solver(solver)?)
         .map_err(fail)?
         .with_bands(bands)
-        .map_err(fail)
+        .map_err(fail)?;
+    if let Some(choice) = warm_start {
+        mpc.warm_start = choice.restart();
+    }
+    Ok(mpc)
 }
 
 /// The bands' name in `summary.json`.

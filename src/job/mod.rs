@@ -26,7 +26,7 @@ pub use season::{
 };
 pub use spec::{
     BandsChoice, ControllerSpec, CostForm, GuideChoice, MpcSpec, OptimumSpec, PlantSpec, RlmpcSpec,
-    RunSpec, SolverChoice, Variant,
+    RunSpec, SolverChoice, Variant, WarmStartChoice,
 };
 pub use weather::WeatherSpec;
 

@@ -20,7 +20,7 @@ use crate::sim::metrics::Metrics;
 use crate::sim::optimum::season_optimum;
 use crate::sim::season::{run_season, SeasonConfig, StepLog};
 use crate::sim::weather::Weather;
-use crate::solve::{Ipm, IpmOptions, Solver, Sqp, SqpOptions};
+use crate::solve::{Ipm, IpmOptions, Solver, Sqp, SqpOptions, WarmStart};
 use serde_json::json;
 use std::path::Path;
 use std::sync::Arc;
@@ -318,11 +318,15 @@ fn build_mpc(
 ) -> Result<(Mpc, usize, serde_json::Value), JobError> {
     let horizon = parse_horizon(&spec.horizon, plant.model.sample_period)?;
     let bands = spec.bands.resolve(plant_spec);
-    let mpc = make_mpc(plant, horizon, spec.solver, bands)?;
+    let mpc = make_mpc(plant, horizon, spec.solver, spec.warm_start, bands)?;
     let extra = json!({
         "horizon_steps": horizon,
         "horizon_h": horizon as f64 * plant.model.sample_period / 3600.0,
         "bands": bands_name(bands),
+        "warm_start": match mpc.warm_start {
+            WarmStart::Primal => "primal",
+            WarmStart::PrimalDual => "primal-dual",
+        },
     });
     Ok((mpc, horizon, extra))
 }
