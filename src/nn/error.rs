@@ -11,6 +11,17 @@ pub enum NnError {
     /// The network was given no layers.
     #[error("\"layers\" is empty: a network needs at least one layer")]
     NoLayers,
+    /// A layer declares more weights than a machine can address (`inputs × outputs`
+    /// overflows).
+    #[error("layers[{layer}] declares {inputs} inputs × {outputs} outputs, more weights than can be held")]
+    LayerTooLarge {
+        /// The layer, 0-based.
+        layer: usize,
+        /// Its declared inputs.
+        inputs: usize,
+        /// Its declared outputs.
+        outputs: usize,
+    },
     /// A layer's weight or bias vector does not match its declared shape.
     #[error("layers[{layer}] declares {inputs} inputs × {outputs} outputs, which need {expected} weights and {outputs} biases; its \"weight\" holds {weights} and its \"bias\" {biases}")]
     LayerShape {

@@ -167,7 +167,15 @@ impl Mlp {
             return Err(NnError::NoLayers);
         }
         for (l, layer) in self.layers.iter().enumerate() {
-            let expected = layer.inputs * layer.outputs;
+            let expected =
+                layer
+                    .inputs
+                    .checked_mul(layer.outputs)
+                    .ok_or(NnError::LayerTooLarge {
+                        layer: l,
+                        inputs: layer.inputs,
+                        outputs: layer.outputs,
+                    })?;
             if layer.weight.len() != expected || layer.bias.len() != layer.outputs {
                 return Err(NnError::LayerShape {
                     layer: l,
