@@ -489,7 +489,7 @@ fn session_outputs(session: &Session, c: &Checked) -> Vec<f64> {
 fn planned_outputs(session: &Session, plan: &PlanJson, forecast: &[f64]) -> Vec<Vec<f64>> {
     let plant = &session.controller.plant;
     let nd = plant.layout.nd;
-    let rows = if nd == 0 { 0 } else { forecast.len() / nd };
+    let rows = forecast.len().checked_div(nd).unwrap_or(0);
     plan.states
         .iter()
         .zip(&plan.inputs)

@@ -13,7 +13,7 @@ use std::sync::{Arc, Mutex, MutexGuard};
 pub const MAX_HISTORY_DAYS: f64 = 7.0;
 
 /// The most steps a session keeps, whatever the sample period.
-const MAX_HISTORY_STEPS: usize = 20_000;
+pub const MAX_HISTORY_STEPS: usize = 20_000;
 
 /// One decided step, as the live page draws it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
