@@ -1,7 +1,8 @@
 //! `ghm serve` and `ghm replay` as a user runs them (the built binary): a replayed season
 //! equals the direct one to the last bit, a service killed mid-season and restarted on its
-//! journal finishes it the same, and every bad request gets a clear 4xx while the service
-//! keeps serving.
+//! journal finishes it the same, every bad request gets a clear 4xx while the service
+//! keeps serving, and the live page (in headless Chromium) draws the decisions as they
+//! come in.
 
 mod common;
 
@@ -127,7 +128,16 @@ fn agent() -> ureq::Agent {
 }
 
 fn get(url: &str) -> (u16, String) {
-    let mut r = agent().get(url).call().expect("GET");
+    get_with_token(url, None)
+}
+
+/// `GET url`, with `Authorization: Bearer token` when given.
+fn get_with_token(url: &str, token: Option<&str>) -> (u16, String) {
+    let mut request = agent().get(url);
+    if let Some(t) = token {
+        request = request.header("Authorization", format!("Bearer {t}"));
+    }
+    let mut r = request.call().expect("GET");
     let status = r.status().as_u16();
     (status, r.body_mut().read_to_string().expect("body"))
 }
@@ -365,25 +375,8 @@ fn message(v: &serde_json::Value) -> &str {
 
 #[test]
 fn every_bad_request_gets_a_clear_4xx_and_the_service_keeps_serving() {
-    let dir = temp_dir("serve-bad");
-    std::fs::create_dir_all(&dir).unwrap();
+    let (server, dir) = start_with_token("serve-bad", "3h", &["--max-body", "8192"]);
     let journal = dir.join("journal.sqlite");
-    let token_file = dir.join("token");
-    std::fs::write(&token_file, format!("{TOKEN}\n")).unwrap();
-    let server = Server::start(&[
-        "--controller",
-        "mpc",
-        "--horizon",
-        "3h",
-        "--listen",
-        "127.0.0.1:0",
-        "--journal",
-        journal.to_str().unwrap(),
-        "--token-file",
-        token_file.to_str().unwrap(),
-        "--max-body",
-        "8192",
-    ]);
     let url = server.url.clone();
     let (status, model) = get(&format!("{url}/model"));
     assert_eq!(status, 200);
@@ -577,5 +570,210 @@ fn a_journal_is_resumed_only_by_the_service_and_decisions_it_was_written_with() 
     ]);
     assert!(err.contains("beyond loopback, needs an API token"), "{err}");
 
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// `ghm serve` of the lettuce model's MPC at `horizon` with TOKEN and `extra` options, on
+/// loopback; the folder `name` holding its journal (`journal.sqlite`) and token file goes
+/// with it.
+fn start_with_token(name: &str, horizon: &str, extra: &[&str]) -> (Server, PathBuf) {
+    let dir = temp_dir(name);
+    std::fs::create_dir_all(&dir).unwrap();
+    let journal = dir.join("journal.sqlite");
+    let token_file = dir.join("token");
+    std::fs::write(&token_file, format!("{TOKEN}\n")).unwrap();
+    let mut args = vec![
+        "--controller",
+        "mpc",
+        "--horizon",
+        horizon,
+        "--listen",
+        "127.0.0.1:0",
+        "--journal",
+        journal.to_str().unwrap(),
+        "--token-file",
+        token_file.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    (Server::start(&args), dir)
+}
+
+/// Posts the decision of `step` (session house-1, 2 forecast rows), which must succeed.
+fn decide_step(url: &str, step: u64) -> serde_json::Value {
+    let body = serde_json::to_vec(&request(step, 2)).unwrap();
+    let (status, answer) = post(url, Some(TOKEN), &body);
+    assert_eq!(status, 200, "step {step}: {answer}");
+    answer
+}
+
+fn history(url: &str, query: &str) -> serde_json::Value {
+    let (status, text) = get_with_token(&format!("{url}/history?{query}"), Some(TOKEN));
+    assert_eq!(status, 200, "{text}");
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("{e}: {text}"))
+}
+
+#[test]
+fn the_history_holds_the_last_decisions_and_the_plan_behind_the_token() {
+    let (server, dir) = start_with_token("serve-history", "1h", &[]);
+    let url = server.url.clone();
+    let (status, page) = get(&format!("{url}/"));
+    assert_eq!(status, 200);
+    assert!(
+        page.contains("<title>ghm serve") && page.contains("/history?"),
+        "{page}"
+    );
+    let (status, text) = get(&format!("{url}/history"));
+    assert_eq!(status, 401, "the history without the token: {text}");
+    let empty = history(&url, "");
+    assert_eq!(empty["steps"].as_array().unwrap().len(), 0);
+    assert!(empty["plan"].is_null());
+
+    let answers: Vec<_> = (0..3).map(|k| decide_step(&url, k)).collect();
+    let h = history(&url, "session=house-1&days=2");
+    assert_eq!(h["session"], "house-1");
+    assert_eq!(h["sessions"], serde_json::json!(["house-1"]));
+    let steps = h["steps"].as_array().unwrap();
+    assert_eq!(steps.len(), 3);
+    for (k, (point, answer)) in steps.iter().zip(&answers).enumerate() {
+        assert_eq!(point["step"], k as u64);
+        assert_eq!(point["state"], request(k as u64, 2)["state"]);
+        assert_eq!(point["input"], answer["input"]);
+        // The lettuce model's outputs, evaluated by the service: crop, CO2, temperature,
+        // humidity.
+        assert_eq!(point["outputs"].as_array().unwrap().len(), 4, "{point}");
+    }
+    let plan = &h["plan"];
+    assert_eq!(plan["step"], 2);
+    assert_eq!(plan["inputs"], answers[2]["plan"]["inputs"]);
+    assert_eq!(plan["states"], answers[2]["plan"]["states"]);
+    assert_eq!(plan["outputs"].as_array().unwrap().len(), 2, "{plan}");
+    assert_eq!(plan["outputs"][1].as_array().unwrap().len(), 4, "{plan}");
+    // Without a session it is the only one; a short window keeps the last step.
+    let last = history(&url, "days=0.01");
+    assert_eq!(last["session"], "house-1");
+    assert_eq!(last["steps"].as_array().unwrap().len(), 1);
+    assert_eq!(last["steps"][0]["step"], 2);
+    let other = history(&url, "session=elsewhere");
+    assert!(other["steps"].as_array().unwrap().is_empty() && other["plan"].is_null());
+    let (status, text) = get_with_token(&format!("{url}/history?days=-1"), Some(TOKEN));
+    assert_eq!(status, 400, "{text}");
+    assert!(text.contains("positive number of days"), "{text}");
+
+    // GET /model carries the soft bands the page shades: temperature in [10, 20] °C, the
+    // relative humidity only bounded above.
+    let (_, model) = get(&format!("{url}/model"));
+    let model: serde_json::Value = serde_json::from_str(&model).unwrap();
+    let outputs = model["outputs"].as_array().unwrap();
+    let temp = outputs.iter().find(|y| y["name"] == "temp").unwrap();
+    assert_eq!(
+        (temp["lower"].as_f64(), temp["upper"].as_f64()),
+        (Some(10.0), Some(20.0))
+    );
+    let rh = outputs.iter().find(|y| y["name"] == "rh_pct").unwrap();
+    assert!(rh.get("lower").is_none() && rh["upper"] == 80.0, "{rh}");
+    server.kill();
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The DOM of `url` after its scripts ran, from headless Chromium (Debian's package).
+fn chromium_dom(url: &str, profile: &Path) -> String {
+    let mut child = Command::new("chromium")
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--no-first-run",
+            "--virtual-time-budget=5000",
+            "--dump-dom",
+        ])
+        .arg(format!("--user-data-dir={}", profile.display()))
+        .arg(url)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap_or_else(|e| {
+            panic!(
+                "cannot run chromium ({e}): the live page's test needs a headless browser; \
+                 install it with `apt-get install chromium`"
+            )
+        });
+    let deadline = std::time::Instant::now() + Duration::from_secs(120);
+    while child.try_wait().expect("wait for chromium").is_none() {
+        if std::time::Instant::now() > deadline {
+            let _ = child.kill();
+            panic!("chromium did not finish within 120 s");
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let out = child.wait_with_output().expect("chromium's output");
+    let dom = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success() && dom.contains("</html>"),
+        "chromium failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    dom
+}
+
+/// The `data-points` of every `<path class="{class}" …>` of a DOM.
+fn path_points(dom: &str, class: &str) -> Vec<usize> {
+    let tag = format!("<path class=\"{class}\" data-points=\"");
+    dom.match_indices(&tag)
+        .filter_map(|(at, _)| {
+            let rest = &dom[at + tag.len()..];
+            rest[..rest.find('"')?].parse().ok()
+        })
+        .collect()
+}
+
+#[test]
+fn the_live_page_draws_every_quantity_and_shows_a_new_decision() {
+    let (server, dir) = start_with_token("serve-page", "1h", &[]);
+    let url = server.url.clone();
+    for k in 0..2 {
+        decide_step(&url, k);
+    }
+    let page = format!("{url}/#token={TOKEN}");
+    let clock = std::time::Instant::now();
+    let dom = chromium_dom(&page, &dir.join("chromium-1"));
+    eprintln!("chromium: {:.1} s", clock.elapsed().as_secs_f64());
+    assert!(
+        dom.contains("lettuce · mpc"),
+        "the model was not read: {dom}"
+    );
+    assert!(
+        dom.contains(">step 1<"),
+        "the last step is not shown: {dom}"
+    );
+    // One panel per state (4), input (3) and output (4): the past solid, the plan dashed.
+    let past = path_points(&dom, "past");
+    let plan = path_points(&dom, "plan");
+    assert_eq!(past.len(), 11, "{dom}");
+    assert_eq!(plan.len(), 11, "{dom}");
+    assert!(past.iter().all(|n| *n >= 2), "{past:?}");
+    assert!(plan.iter().all(|n| *n >= 2), "{plan:?}");
+    assert_eq!(
+        dom.matches("class=\"band\"").count(),
+        3,
+        "the outputs' soft bands"
+    );
+
+    decide_step(&url, 2);
+    let dom = chromium_dom(&page, &dir.join("chromium-2"));
+    assert!(
+        dom.contains(">step 2<"),
+        "the new decision is not shown: {dom}"
+    );
+    let more = path_points(&dom, "past");
+    assert!(
+        more.iter().zip(&past).all(|(a, b)| a > b),
+        "{past:?} → {more:?}"
+    );
+
+    // Without the token the page says what to do.
+    let dom = chromium_dom(&format!("{url}/"), &dir.join("chromium-3"));
+    assert!(dom.contains("401"), "{dom}");
+    assert!(dom.contains("#token=YOUR_TOKEN"), "{dom}");
+    server.kill();
     std::fs::remove_dir_all(&dir).unwrap();
 }

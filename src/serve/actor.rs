@@ -10,6 +10,7 @@
 //! sessions of a batch the journal could not take.
 
 use super::api::{ApiError, DecideRequest, DecideResponse, ModelInfo, PlanJson, Quantity};
+use super::history::{History, HistoryPoint, PlanAhead};
 use super::journal::{Entry, Journal, Outcome};
 use super::metrics::Metrics;
 use super::validate::{check, Checked};
@@ -32,6 +33,8 @@ pub struct ControllerThread {
     pub info: Arc<ModelInfo>,
     /// Journaled decisions it re-decided to start.
     pub restored: u64,
+    /// The recent decisions of every session, which it keeps up to date.
+    pub history: History,
     /// Where requests go.
     pub jobs: mpsc::Sender<Job>,
     /// Resolves when it has stopped.
@@ -60,13 +63,21 @@ pub fn spawn(
                 let built = build_controller(&spec)?;
                 let info = Arc::new(model_info(&spec, &built));
                 let journal = Journal::open(&journal, &spec, &info.model_sha256)?;
-                let (actor, restored) =
-                    Actor::start(spec, info.clone(), journal, built, max_sessions, metrics)?;
-                Ok((actor, info, restored))
+                let history = History::new(info.sample_period_s);
+                let parts = Parts {
+                    spec,
+                    info: info.clone(),
+                    journal,
+                    history: history.clone(),
+                    max_sessions,
+                    metrics,
+                };
+                let (actor, restored) = Actor::start(parts, built)?;
+                Ok((actor, info, restored, history))
             };
             let result = match start() {
-                Ok((actor, info, restored)) => {
-                    let _ = ready.send(Ok((info, restored)));
+                Ok((actor, info, restored, history)) => {
+                    let _ = ready.send(Ok((info, restored, history)));
                     actor.run(queue)
                 }
                 Err(e) => {
@@ -78,12 +89,13 @@ pub fn spawn(
             result
         })
         .map_err(|e| ServeError::Runtime(format!("cannot start the controller thread: {e}")))?;
-    let (info, restored) = on_ready.recv().map_err(|_| {
+    let (info, restored, history) = on_ready.recv().map_err(|_| {
         ServeError::Runtime("the controller thread stopped while starting".into())
     })??;
     Ok(ControllerThread {
         info,
         restored,
+        history,
         jobs,
         stopped,
         thread,
@@ -99,6 +111,7 @@ fn model_info(spec: &RunSpec, built: &StandaloneController) -> ModelInfo {
         lower: None,
         upper: None,
     };
+    let finite = |v: f64| Some(v).filter(|v| v.is_finite());
     ModelInfo {
         model: model.name.clone(),
         model_sha256: model_hash(&built.plant),
@@ -121,7 +134,19 @@ fn model_info(spec: &RunSpec, built: &StandaloneController) -> ModelInfo {
             .iter()
             .map(|d| quantity(&d.info))
             .collect(),
-        outputs: model.outputs.iter().map(|y| quantity(&y.info)).collect(),
+        outputs: model
+            .outputs
+            .iter()
+            .enumerate()
+            .map(|(i, y)| match model.soft.iter().find(|b| b.output == i) {
+                Some(band) => Quantity {
+                    lower: finite(band.lower),
+                    upper: finite(band.upper),
+                    ..quantity(&y.info)
+                },
+                None => quantity(&y.info),
+            })
+            .collect(),
     }
 }
 
@@ -146,11 +171,22 @@ struct Session {
     last_step: Option<u64>,
 }
 
+/// What the controller thread is started with, besides its first controller.
+struct Parts {
+    spec: RunSpec,
+    info: Arc<ModelInfo>,
+    journal: Journal,
+    history: History,
+    max_sessions: usize,
+    metrics: Arc<Metrics>,
+}
+
 /// The controller thread's state.
 struct Actor {
     spec: RunSpec,
     info: Arc<ModelInfo>,
     journal: Journal,
+    history: History,
     sessions: HashMap<String, Session>,
     /// A controller built and not yet given to a session.
     spare: Option<StandaloneController>,
@@ -169,22 +205,16 @@ struct Pending {
 impl Actor {
     /// The controller thread over `journal`, with every session journaled restored;
     /// `built` is a controller of `spec` already built (it becomes the first session's).
-    fn start(
-        spec: RunSpec,
-        info: Arc<ModelInfo>,
-        journal: Journal,
-        built: StandaloneController,
-        max_sessions: usize,
-        metrics: Arc<Metrics>,
-    ) -> Result<(Actor, u64), ServeError> {
+    fn start(parts: Parts, built: StandaloneController) -> Result<(Actor, u64), ServeError> {
         let mut actor = Actor {
-            spec,
-            info,
-            journal,
+            spec: parts.spec,
+            info: parts.info,
+            journal: parts.journal,
+            history: parts.history,
             sessions: HashMap::new(),
             spare: Some(built),
-            max_sessions,
-            metrics,
+            max_sessions: parts.max_sessions,
+            metrics: parts.metrics,
         };
         let mut restored = 0;
         for name in actor.journal.sessions()? {
@@ -326,7 +356,7 @@ impl Actor {
                 None,
             );
         };
-        let outcome = decide(session, &job.checked);
+        let outcome = decide_and_record(session, &job.checked, &self.history);
         session.last_step = Some(step);
         let result = match &outcome {
             Outcome::Answer(a) => Ok(a.clone()),
@@ -394,6 +424,8 @@ impl Actor {
         let mut session = self.new_session()?;
         let mut n = 0;
         let info = self.info.clone();
+        let history = self.history.clone();
+        history.forget(name);
         self.journal.for_each(name, |entry| {
             let step = entry.request.step;
             let mismatch = |what: String| ServeError::Recovery {
@@ -402,7 +434,7 @@ impl Actor {
                 message: what,
             };
             let checked = check(&entry.request, &info).map_err(|e| mismatch(e.message))?;
-            let again = decide(&mut session, &checked);
+            let again = decide_and_record(&mut session, &checked, &history);
             same_decision(&entry.outcome, &again).map_err(mismatch)?;
             session.last_step = Some(step);
             n += 1;
@@ -413,23 +445,72 @@ impl Actor {
     }
 }
 
-/// Decides one checked request with the session's controller.
-fn decide(session: &mut Session, c: &Checked) -> Outcome {
-    let s = &mut session.controller;
-    let nd = s.plant.layout.nd;
-    let outputs = match &c.outputs {
+/// Decides one checked request with the session's controller, and adds a decision to the
+/// session's history.
+fn decide_and_record(session: &mut Session, c: &Checked, history: &History) -> Outcome {
+    let outputs = session_outputs(session, c);
+    let outcome = decide(session, c, &outputs);
+    if let Outcome::Answer(a) = &outcome {
+        let plan = a.plan.as_ref().map(|p| {
+            let predicted = planned_outputs(session, p, &c.forecast);
+            PlanAhead::new(a.step, p, predicted)
+        });
+        let point = HistoryPoint {
+            step: a.step,
+            state: c.state.clone(),
+            input: a.input.clone(),
+            outputs,
+        };
+        history.record(&c.session, point, plan);
+    }
+    outcome
+}
+
+/// The outputs at a request's step: measured, or evaluated at the state, the previous
+/// input and the first forecast row.
+fn session_outputs(session: &Session, c: &Checked) -> Vec<f64> {
+    match &c.outputs {
         Some(y) => y.clone(),
-        None => s.plant.outputs(
-            &c.state,
-            &c.previous_input,
-            &c.forecast[..nd.min(c.forecast.len())],
-            &session.params,
-        ),
-    };
+        None => {
+            let plant = &session.controller.plant;
+            let nd = plant.layout.nd;
+            plant.outputs(
+                &c.state,
+                &c.previous_input,
+                &c.forecast[..nd.min(c.forecast.len())],
+                &session.params,
+            )
+        }
+    }
+}
+
+/// The outputs of a plan's predicted states `x_{i+1}`, with its inputs `u_i` and the
+/// forecast row of step `i+1` (the last row past the forecast's end).
+fn planned_outputs(session: &Session, plan: &PlanJson, forecast: &[f64]) -> Vec<Vec<f64>> {
+    let plant = &session.controller.plant;
+    let nd = plant.layout.nd;
+    let rows = forecast.len().checked_div(nd).unwrap_or(0);
+    plan.states
+        .iter()
+        .zip(&plan.inputs)
+        .enumerate()
+        .map(|(i, (x, u))| {
+            let row = (i + 1).min(rows.saturating_sub(1));
+            forecast
+                .get(row * nd..(row + 1) * nd)
+                .map(|d| plant.outputs(x, u, d, &session.params))
+                .unwrap_or_default()
+        })
+        .collect()
+}
+
+/// Decides one checked request with the session's controller, given its outputs.
+fn decide(session: &mut Session, c: &Checked, outputs: &[f64]) -> Outcome {
+    let s = &mut session.controller;
     let observation = Observation {
         step: c.step,
         state: &c.state,
-        outputs: &outputs,
+        outputs,
         previous_input: &c.previous_input,
         forecast: &c.forecast,
     };

@@ -111,10 +111,11 @@ pub struct Quantity {
     pub name: String,
     /// Its unit as declared there.
     pub unit: String,
-    /// Inputs: the lower bound.
+    /// Inputs: the lower bound; outputs: the soft band's lower limit (none when the band
+    /// has none).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lower: Option<f64>,
-    /// Inputs: the upper bound.
+    /// Inputs: the upper bound; outputs: the soft band's upper limit.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub upper: Option<f64>,
 }
@@ -141,7 +142,7 @@ pub struct ModelInfo {
     pub inputs: Vec<Quantity>,
     /// The disturbances (forecast columns), in order.
     pub disturbances: Vec<Quantity>,
-    /// The outputs, in order.
+    /// The outputs, in order, with their soft bands.
     pub outputs: Vec<Quantity>,
 }
 

@@ -1,18 +1,20 @@
 //! The controller as a service: `ghm serve` answers `POST /decide` (the measurements of a
-//! step → the input to apply) over HTTP/JSON, with `GET /model`, `GET /health` and
-//! `GET /metrics` (Prometheus). Every decision is journaled in SQLite before it is
-//! answered, and a restarted service rebuilds its controllers from the journal
-//! (`docs/serve.md`). [`client::RemoteController`] is the other end, which `ghm replay`
-//! runs a season with.
+//! step → the input to apply) over HTTP/JSON, with `GET /model`, `GET /health`,
+//! `GET /metrics` (Prometheus), and a live page (`GET /`, drawn from `GET /history`).
+//! Every decision is journaled in SQLite before it is answered, and a restarted service
+//! rebuilds its controllers from the journal (`docs/serve.md`).
+//! [`client::RemoteController`] is the other end, which `ghm replay` runs a season with.
 //!
 //! The room owns the JSON ([`api`]), the checks of a request ([`validate`]), the journal
-//! ([`journal`]), the metrics ([`metrics`]), the controller thread ([`actor`]), the token
-//! ([`token`]) and the HTTP side ([`server`]). It builds controllers only through the job
-//! layer (`job::build_controller`) and never runs a season itself.
+//! ([`journal`]), the metrics ([`metrics`]), the controller thread ([`actor`]), the recent
+//! decisions the live page shows ([`history`]), the token ([`token`]) and the HTTP side
+//! ([`server`]). It builds controllers only through the job layer
+//! (`job::build_controller`) and never runs a season itself.
 
 pub mod actor;
 pub mod api;
 pub mod client;
+pub mod history;
 pub mod journal;
 pub mod metrics;
 pub mod server;

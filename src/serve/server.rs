@@ -1,16 +1,18 @@
 //! The HTTP side of the service (axum on tokio): the routes, the token, the body limit,
-//! parsing and checking requests, and starting and stopping the whole service. Deciding is
+//! parsing and checking requests, the live page and its history, and starting and
+//! stopping the whole service. Deciding is
 //! the controller thread's ([`actor`](super::actor)); this side only talks to it.
 
 use super::actor::{spawn, ControllerThread, Job};
 use super::api::{ApiError, DecideRequest, ErrorBody, ModelInfo};
+use super::history::{steps_in_days, History, MAX_HISTORY_DAYS};
 use super::metrics::Metrics;
 use super::token::TokenCheck;
 use super::validate::check;
 use super::{ServeError, ServeOptions};
 use axum::body::{to_bytes, Bytes};
 use axum::extract::{Request, State};
-use axum::http::{header, StatusCode};
+use axum::http::{header, HeaderMap, StatusCode};
 use axum::response::{IntoResponse, Response};
 use axum::routing::{get, post};
 use axum::Router;
@@ -23,6 +25,7 @@ use tokio::sync::{mpsc, oneshot};
 struct App {
     jobs: mpsc::Sender<Job>,
     info: Arc<ModelInfo>,
+    history: History,
     info_json: Bytes,
     token: Option<TokenCheck>,
     metrics: Arc<Metrics>,
@@ -67,6 +70,7 @@ pub fn run(options: ServeOptions) -> Result<(), ServeError> {
         jobs,
         stopped,
         thread,
+        history,
         ..
     } = controller;
     runtime.block_on(async move {
@@ -81,6 +85,7 @@ pub fn run(options: ServeOptions) -> Result<(), ServeError> {
         let app = Arc::new(App {
             jobs,
             info: info.clone(),
+            history,
             info_json,
             token: options.token.as_deref().map(TokenCheck::new),
             metrics,
@@ -91,6 +96,8 @@ pub fn run(options: ServeOptions) -> Result<(), ServeError> {
             .route("/health", get(health))
             .route("/model", get(model))
             .route("/metrics", get(metrics_text))
+            .route("/", get(page))
+            .route("/history", get(history_json))
             .fallback(not_found)
             .with_state(app);
         println!(
@@ -146,16 +153,24 @@ async fn decide(State(app): State<Arc<App>>, request: Request) -> Response {
     }
 }
 
-async fn decide_answer(app: &App, request: Request) -> Result<Vec<u8>, ApiError> {
-    if let Some(token) = &app.token {
-        let given = request.headers().get(header::AUTHORIZATION);
-        if !token.accepts(given.map(|v| v.as_bytes())) {
-            return Err(ApiError::new(
-                StatusCode::UNAUTHORIZED,
-                "a valid API token is required: send the header `Authorization: Bearer <token>`",
-            ));
-        }
+/// 401 unless the request carries the API token, where the service has one.
+fn authorize(app: &App, headers: &HeaderMap) -> Result<(), ApiError> {
+    let Some(token) = &app.token else {
+        return Ok(());
+    };
+    let given = headers.get(header::AUTHORIZATION);
+    if token.accepts(given.map(|v| v.as_bytes())) {
+        Ok(())
+    } else {
+        Err(ApiError::new(
+            StatusCode::UNAUTHORIZED,
+            "a valid API token is required: send the header `Authorization: Bearer <token>`",
+        ))
     }
+}
+
+async fn decide_answer(app: &App, request: Request) -> Result<Vec<u8>, ApiError> {
+    authorize(app, request.headers())?;
     let body = to_bytes(request.into_body(), app.max_body)
         .await
         .map_err(|e| body_error(e, app.max_body))?;
@@ -238,11 +253,111 @@ async fn metrics_text(State(app): State<Arc<App>>) -> Response {
         .into_response()
 }
 
+/// The live page: static HTML that draws `GET /history` (it holds no data itself).
+const PAGE: &str = include_str!("page.html");
+
+/// `GET /`: the live page.
+async fn page() -> Response {
+    (
+        StatusCode::OK,
+        [
+            (header::CONTENT_TYPE, "text/html; charset=utf-8"),
+            (header::CACHE_CONTROL, "no-store"),
+        ],
+        PAGE,
+    )
+        .into_response()
+}
+
+/// Days of history `GET /history` returns when the query names none.
+const DEFAULT_HISTORY_DAYS: f64 = 2.0;
+
+/// `GET /history?session=NAME&days=D`: the session's last `D` days of decisions (at most
+/// [`MAX_HISTORY_DAYS`]) and its current plan; the token is required as for `/decide`.
+async fn history_json(State(app): State<Arc<App>>, request: Request) -> Response {
+    match history_answer(&app, &request) {
+        Ok(body) => json(StatusCode::OK, body),
+        Err(e) => error(e),
+    }
+}
+
+fn history_answer(app: &App, request: &Request) -> Result<Vec<u8>, ApiError> {
+    authorize(app, request.headers())?;
+    let query = HistoryQuery::parse(request.uri().query().unwrap_or(""))?;
+    let steps = steps_in_days(query.days, app.info.sample_period_s);
+    let snapshot = app.history.snapshot(query.session.as_deref(), steps);
+    serde_json::to_vec(&snapshot)
+        .map_err(|e| ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, e.to_string()))
+}
+
+/// The query of `GET /history`.
+#[derive(Debug, PartialEq)]
+struct HistoryQuery {
+    session: Option<String>,
+    days: f64,
+}
+
+impl HistoryQuery {
+    /// `session=NAME&days=D`, both optional; 400 for anything else.
+    fn parse(query: &str) -> Result<HistoryQuery, ApiError> {
+        let bad = |m: String| ApiError::new(StatusCode::BAD_REQUEST, m);
+        let mut parsed = HistoryQuery {
+            session: None,
+            days: DEFAULT_HISTORY_DAYS,
+        };
+        for pair in query.split('&').filter(|p| !p.is_empty()) {
+            let (key, value) = pair.split_once('=').unwrap_or((pair, ""));
+            let value = percent_decode(value)
+                .ok_or_else(|| bad(format!("{key}: {value:?} is not percent-encoded UTF-8")))?;
+            match key {
+                "session" => parsed.session = Some(value),
+                "days" => {
+                    parsed.days = value
+                        .parse::<f64>()
+                        .ok()
+                        .filter(|d| *d > 0.0 && d.is_finite())
+                        .ok_or_else(|| {
+                            bad(format!("days={value:?}: give a positive number of days"))
+                        })?
+                        .min(MAX_HISTORY_DAYS)
+                }
+                _ => {
+                    return Err(bad(format!(
+                        "GET /history takes session=NAME and days=D, not {key:?}"
+                    )))
+                }
+            }
+        }
+        Ok(parsed)
+    }
+}
+
+/// A URL query value decoded (`+` is a space, `%XX` a byte); `None` if it is not valid.
+fn percent_decode(text: &str) -> Option<String> {
+    let mut bytes = Vec::with_capacity(text.len());
+    let mut rest = text.as_bytes();
+    while let Some((&b, tail)) = rest.split_first() {
+        rest = tail;
+        match b {
+            b'+' => bytes.push(b' '),
+            b'%' => {
+                let hex = rest.get(..2)?;
+                let hex = std::str::from_utf8(hex).ok()?;
+                bytes.push(u8::from_str_radix(hex, 16).ok()?);
+                rest = &rest[2..];
+            }
+            _ => bytes.push(b),
+        }
+    }
+    String::from_utf8(bytes).ok()
+}
+
 async fn not_found(request: Request) -> Response {
     error(ApiError::new(
         StatusCode::NOT_FOUND,
         format!(
-            "no {} {}: the service answers POST /decide, GET /model, GET /health and GET /metrics",
+            "no {} {}: the service answers POST /decide, GET /model, GET /health, GET /metrics, \
+             GET /history and GET / (the live page)",
             request.method(),
             request.uri().path()
         ),
@@ -264,4 +379,34 @@ fn error(e: ApiError) -> Response {
         );
     }
     response
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_history_query_names_a_session_and_a_bounded_number_of_days() {
+        let q = HistoryQuery::parse("session=house%201&days=3").unwrap();
+        assert_eq!(q.session.as_deref(), Some("house 1"));
+        assert_eq!(q.days, 3.0);
+        let q = HistoryQuery::parse("").unwrap();
+        assert_eq!((q.session, q.days), (None, DEFAULT_HISTORY_DAYS));
+        assert_eq!(
+            HistoryQuery::parse("days=365").unwrap().days,
+            MAX_HISTORY_DAYS
+        );
+        for bad in ["days=-1", "days=NaN", "days=x", "step=3", "session=%zz"] {
+            let e = HistoryQuery::parse(bad).unwrap_err();
+            assert_eq!(e.status, StatusCode::BAD_REQUEST, "{bad}: {}", e.message);
+        }
+    }
+
+    #[test]
+    fn percent_decoding_refuses_what_is_not_utf8() {
+        assert_eq!(percent_decode("a+b%2Fc").as_deref(), Some("a b/c"));
+        assert_eq!(percent_decode("%C3%A9").as_deref(), Some("é"));
+        assert_eq!(percent_decode("%ff"), None);
+        assert_eq!(percent_decode("%4"), None);
+    }
 }
