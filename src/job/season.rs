@@ -12,7 +12,7 @@ use crate::job::folder::{self, RunFolder};
 use crate::job::output::{figure, model_hash, plot_trajectory, write_summary, TrajectoryWriter};
 use crate::job::spec::{
     ControllerSpec, CostForm, MpcSpec, OptimumSpec, PlantSpec, RlmpcSpec, RunSpec, SolverChoice,
-    Variant,
+    Variant, WarmStartChoice,
 };
 use crate::job::JobError;
 use crate::model::Plant;
@@ -20,7 +20,7 @@ use crate::sim::metrics::Metrics;
 use crate::sim::optimum::season_optimum;
 use crate::sim::season::{run_season, SeasonConfig, StepLog};
 use crate::sim::weather::Weather;
-use crate::solve::{Ipm, IpmOptions, Solver, Sqp, SqpOptions, WarmStart};
+use crate::solve::{Ipm, IpmOptions, Solver, Sqp, SqpOptions};
 use serde_json::json;
 use std::path::Path;
 use std::sync::Arc;
@@ -323,10 +323,7 @@ fn build_mpc(
         "horizon_steps": horizon,
         "horizon_h": horizon as f64 * plant.model.sample_period / 3600.0,
         "bands": bands_name(bands),
-        "warm_start": match mpc.warm_start {
-            WarmStart::Primal => "primal",
-            WarmStart::PrimalDual => "primal-dual",
-        },
+        "warm_start": WarmStartChoice::from(mpc.warm_start),
     });
     Ok((mpc, horizon, extra))
 }

@@ -242,6 +242,16 @@ impl WarmStartChoice {
     }
 }
 
+impl From<crate::solve::WarmStart> for WarmStartChoice {
+    /// The choice that names a restart (in `summary.json`, by the same names as the spec).
+    fn from(restart: crate::solve::WarmStart) -> Self {
+        match restart {
+            crate::solve::WarmStart::Primal => WarmStartChoice::Primal,
+            crate::solve::WarmStart::PrimalDual => WarmStartChoice::PrimalDual,
+        }
+    }
+}
+
 /// Which bounds of the soft bands MPC plans with.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, ValueEnum, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
