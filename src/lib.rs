@@ -30,6 +30,7 @@
 //! ```
 pub mod cli;
 pub mod control;
+pub mod embed;
 pub mod graph;
 pub mod job;
 pub mod lang;

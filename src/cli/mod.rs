@@ -3,6 +3,7 @@
 //! panics on user input.
 
 mod check;
+mod compile;
 mod mpc;
 mod optimum;
 mod policy;
@@ -88,6 +89,9 @@ enum Command {
     Serve(serve::ServeArgs),
     /// Run a season against a running `ghm serve`, the simulator playing the greenhouse.
     Replay(replay::ReplayArgs),
+    /// Compile a controller into a static library with a C ABI (model, networks and options
+    /// built in).
+    Compile(compile::CompileArgs),
 }
 
 /// Runs the command line; returns the process exit code.
@@ -106,6 +110,7 @@ pub fn main() -> i32 {
         Command::Report(a) => report::run(&a),
         Command::Serve(a) => serve::run(&a),
         Command::Replay(a) => replay::run(&a),
+        Command::Compile(a) => compile::run(&a),
     };
     match result {
         Ok(()) => 0,

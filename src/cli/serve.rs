@@ -25,33 +25,17 @@ pub enum Served {
     Expert,
 }
 
+/// The controller a service runs or `ghm compile` packs: the model and the options of the
+/// controller's own command.
 #[derive(Debug, Args)]
-pub struct ServeArgs {
+pub struct ControllerArgs {
     /// The model file (.ghm).
     pub file: PathBuf,
     /// What decides, with the options of its command: `--agent` is the policy's or the
     /// guide's; the weather options pick the agents shipped for the model (the built-in
-    /// weather has its own), and the season's length does not matter to a service.
+    /// weather has its own), and the season's length does not matter to a controller.
     #[arg(long, value_enum)]
     pub controller: Served,
-    /// Address to listen on; port 0 picks a free port (the address is printed). Beyond
-    /// loopback an API token is required.
-    #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:8750")]
-    pub listen: SocketAddr,
-    /// The journal (SQLite): every decision and its request. An existing journal is
-    /// resumed: it must have been begun with the same options and model.
-    #[arg(long, value_name = "FILE", default_value = "ghm-serve.sqlite")]
-    pub journal: PathBuf,
-    /// A file whose first line is the API token `POST /decide` requires (at least 16
-    /// characters); or set GHM_SERVE_TOKEN.
-    #[arg(long, value_name = "FILE")]
-    pub token_file: Option<PathBuf>,
-    /// The most sessions (greenhouses, each with its own controller) served.
-    #[arg(long, value_name = "N", default_value_t = 64)]
-    pub max_sessions: usize,
-    /// The largest request body, in bytes (larger: 413).
-    #[arg(long, value_name = "BYTES", default_value_t = 1 << 20)]
-    pub max_body: usize,
     /// Prediction horizon of mpc (default 3h) and rlmpc (default 1h).
     #[arg(long, value_name = "H")]
     pub horizon: Option<String>,
@@ -65,8 +49,17 @@ pub struct ServeArgs {
     pub plant: PlantSpec,
 }
 
-impl ServeArgs {
-    /// The controller's spec.
+impl ControllerArgs {
+    /// The spec of the controller.
+    pub fn spec(&self) -> Result<RunSpec, CliError> {
+        Ok(RunSpec {
+            model: self.file.clone(),
+            weather: self.weather.clone(),
+            plant: self.plant.clone(),
+            controller: self.controller()?,
+        })
+    }
+
     fn controller(&self) -> Result<ControllerSpec, CliError> {
         let horizon = |default: &str| self.horizon.clone().unwrap_or_else(|| default.into());
         Ok(match self.controller {
@@ -90,13 +83,32 @@ impl ServeArgs {
     }
 }
 
+#[derive(Debug, Args)]
+pub struct ServeArgs {
+    #[command(flatten)]
+    pub served: ControllerArgs,
+    /// Address to listen on; port 0 picks a free port (the address is printed). Beyond
+    /// loopback an API token is required.
+    #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:8750")]
+    pub listen: SocketAddr,
+    /// The journal (SQLite): every decision and its request. An existing journal is
+    /// resumed: it must have been begun with the same options and model.
+    #[arg(long, value_name = "FILE", default_value = "ghm-serve.sqlite")]
+    pub journal: PathBuf,
+    /// A file whose first line is the API token `POST /decide` requires (at least 16
+    /// characters); or set GHM_SERVE_TOKEN.
+    #[arg(long, value_name = "FILE")]
+    pub token_file: Option<PathBuf>,
+    /// The most sessions (greenhouses, each with its own controller) served.
+    #[arg(long, value_name = "N", default_value_t = 64)]
+    pub max_sessions: usize,
+    /// The largest request body, in bytes (larger: 413).
+    #[arg(long, value_name = "BYTES", default_value_t = 1 << 20)]
+    pub max_body: usize,
+}
+
 pub fn run(args: &ServeArgs) -> Result<(), CliError> {
-    let spec = RunSpec {
-        model: args.file.clone(),
-        weather: args.weather.clone(),
-        plant: args.plant.clone(),
-        controller: args.controller()?,
-    };
+    let spec = args.served.spec()?;
     let token = read_token(args.token_file.as_deref()).map_err(serve_error)?;
     crate::serve::run(ServeOptions {
         spec,

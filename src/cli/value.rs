@@ -6,7 +6,7 @@
 
 use crate::cli::CliError;
 use crate::control::ValueFile;
-use crate::job::build::{guide_factory, GuideFactory};
+use crate::job::build::{guide_factory, resolve_guide_policy, GuideFactory};
 use crate::job::output::{model_hash, progress_bar as bar, write_atomically, write_summary};
 use crate::job::{load_model, GuideChoice, RunFolder, WeatherSpec};
 use crate::model::Plant;
@@ -89,14 +89,15 @@ pub fn run(args: &ValueArgs) -> Result<(), CliError> {
     };
     let steps = args.weather.steps(&plant.model)?;
     let weather = args.weather.load(&plant.model, steps, 0)?;
-    let make_guide = guide_factory(
-        &plant,
+    let policy = resolve_guide_policy(
         args.guide,
         &args.file,
         &args.weather,
         args.agent.as_deref(),
+        &plant,
         true,
     )?;
+    let make_guide = guide_factory(&plant, args.guide, policy)?;
     let folder = RunFolder::claim(&args.out, args.overwrite, None)?;
     folder.finish(fit_and_write(
         args,

@@ -3,13 +3,16 @@
 //! the value network, fixed inputs.
 
 use crate::control::{ConstantInput, Controller, Expert, InputTable, Mpc, Policy, ValueFile};
-use crate::job::spec::{GuideChoice, RlmpcSpec, SolverChoice, WarmStartChoice};
+use crate::job::spec::{
+    ControllerSpec, CostForm, GuideChoice, RlmpcSpec, RunSpec, SolverChoice, WarmStartChoice,
+};
 use crate::job::weather::WeatherSpec;
 use crate::job::JobError;
 use crate::model::Plant;
 use crate::nlp::Bands;
 use crate::rl::PolicyFile;
 use crate::solve::{Ipm, Solver, Sqp};
+use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -162,20 +165,35 @@ pub fn resolve_policy(
 /// A factory of guide controllers (one per thread or per use).
 pub type GuideFactory = Box<dyn Fn() -> Box<dyn Controller + Send> + Sync>;
 
-/// Builds the guide factory for `choice`; `announce` says on stderr which shipped agent
-/// is used.
-pub fn guide_factory(
-    plant: &Arc<Plant>,
+/// The policy a guide of `choice` follows: `--agent`'s or the shipped one for the SAC
+/// guide (see [`resolve_policy`]), none for the expert.
+pub fn resolve_guide_policy(
     choice: GuideChoice,
     model_file: &Path,
     weather: &WeatherSpec,
     agent: Option<&Path>,
+    plant: &Plant,
     announce: bool,
+) -> Result<Option<PolicyFile>, JobError> {
+    match choice {
+        GuideChoice::Sac => resolve_policy(model_file, weather, agent, plant, announce).map(Some),
+        GuideChoice::Expert => Ok(None),
+    }
+}
+
+/// Builds the guide factory for `choice`; the SAC guide follows `policy` (see
+/// [`resolve_guide_policy`]).
+pub fn guide_factory(
+    plant: &Arc<Plant>,
+    choice: GuideChoice,
+    policy: Option<PolicyFile>,
 ) -> Result<GuideFactory, JobError> {
     let fail = |e: crate::control::ControlError| JobError::Spec(e.to_string());
     match choice {
         GuideChoice::Sac => {
-            let file = resolve_policy(model_file, weather, agent, plant, announce)?;
+            let file = policy.ok_or_else(|| {
+                JobError::Spec("the SAC guide needs a policy (--agent DIR)".into())
+            })?;
             let policy = Policy::new(plant, file).map_err(fail)?;
             Ok(Box::new(move || {
                 Box::new(policy.clone()) as Box<dyn Controller + Send>
@@ -187,6 +205,52 @@ pub fn guide_factory(
                 Box::new(expert.clone()) as Box<dyn Controller + Send>
             }))
         }
+    }
+}
+
+/// The files a spec's controller reads, loaded and checked against the plant: the policy
+/// of a policy controller or of RL-guided MPC's SAC guide, and RL-guided MPC's value
+/// network. The job layer reads them from disk ([`ControllerFiles::load`]); a compiled
+/// controller carries them inside (`embed`).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct ControllerFiles {
+    /// The policy, where the controller follows one.
+    pub policy: Option<PolicyFile>,
+    /// The value network, where the controller has a terminal cost.
+    pub value: Option<ValueFile>,
+}
+
+impl ControllerFiles {
+    /// Reads the files `spec`'s controller needs (`announce`: say on stderr which shipped
+    /// agent is used).
+    pub fn load(spec: &RunSpec, plant: &Plant, announce: bool) -> Result<Self, JobError> {
+        let mut files = ControllerFiles::default();
+        match &spec.controller {
+            ControllerSpec::Policy { agent } => {
+                files.policy = Some(resolve_policy(
+                    &spec.model,
+                    &spec.weather,
+                    agent.as_deref(),
+                    plant,
+                    announce,
+                )?);
+            }
+            ControllerSpec::Rlmpc(rlmpc) => {
+                files.policy = resolve_guide_policy(
+                    rlmpc.guide,
+                    &spec.model,
+                    &spec.weather,
+                    rlmpc.agent.as_deref(),
+                    plant,
+                    announce,
+                )?;
+                if rlmpc.terminal_cost != CostForm::None {
+                    files.value = Some(resolve_value(&spec.model, &spec.weather, rlmpc, plant)?);
+                }
+            }
+            _ => {}
+        }
+        Ok(files)
     }
 }
 

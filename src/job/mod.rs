@@ -18,11 +18,12 @@ mod season;
 mod spec;
 mod weather;
 
-pub use build::load_model;
+pub use build::{load_model, ControllerFiles};
 pub use folder::RunFolder;
 pub use season::{
-    build_controller, print_metrics, run_external_season_job, run_season_job, run_season_logs,
-    ExternalController, JobOptions, SeasonLogs, SeasonOutcome, StandaloneController,
+    build_controller, build_controller_with, print_metrics, run_external_season_job,
+    run_season_job, run_season_logs, ExternalController, JobOptions, SeasonLogs, SeasonOutcome,
+    StandaloneController,
 };
 pub use spec::{
     BandsChoice, ControllerSpec, CostForm, GuideChoice, MpcSpec, OptimumSpec, PlantSpec, RlmpcSpec,

@@ -6,7 +6,7 @@ use crate::control::TerminalCostForm;
 use crate::control::{Controller, Expert, InputTable, Mpc, Policy, RlGuidance, RlMpcOptions};
 use crate::job::build::{
     bands_name, guide_factory, load_model, make_mpc, make_solver, parse_horizon, parse_inputs,
-    resolve_policy, resolve_value,
+    ControllerFiles,
 };
 use crate::job::folder::{self, RunFolder};
 use crate::job::output::{figure, model_hash, plot_trajectory, write_summary, TrajectoryWriter};
@@ -107,7 +107,10 @@ fn prepare(
             forecast: e.forecast_rows,
             enforce_limits: true,
         },
-        None => build(spec, &plant, &plant_spec, steps, out, options)?,
+        None => {
+            let files = ControllerFiles::load(spec, &plant, options.verbose)?;
+            build(spec, &plant, &plant_spec, steps, out, options, files)?
+        }
     };
     let weather = spec.weather.load(&plant.model, steps, built.forecast)?;
     let config = SeasonConfig {
@@ -217,18 +220,30 @@ pub struct StandaloneController {
 /// The controller `spec` names, to be driven step by step. The optimum is a season, not a
 /// controller, and is refused.
 pub fn build_controller(spec: &RunSpec) -> Result<StandaloneController, JobError> {
+    let model = load_model(&spec.model)?;
+    let plant = Arc::new(Plant::new(model));
+    let files = ControllerFiles::load(spec, &plant, false)?;
+    build_controller_with(spec, plant, files)
+}
+
+/// [`build_controller`] for a plant and controller files already loaded (a compiled
+/// controller's, which carries them inside): `spec.model` and the files it names are not
+/// read.
+pub fn build_controller_with(
+    spec: &RunSpec,
+    plant: Arc<Plant>,
+    files: ControllerFiles,
+) -> Result<StandaloneController, JobError> {
     if matches!(spec.controller, ControllerSpec::Optimum(_)) {
         return Err(JobError::Spec(
             "the season optimum decides a whole season at once; run it as a season".into(),
         ));
     }
-    let model = load_model(&spec.model)?;
-    let plant = Arc::new(Plant::new(model));
     let quiet = JobOptions {
         overwrite: false,
         verbose: false,
     };
-    let built = build(spec, &plant, &spec.plant, 0, None, &quiet)?;
+    let built = build(spec, &plant, &spec.plant, 0, None, &quiet, files)?;
     Ok(StandaloneController {
         plant,
         controller: built.controller,
@@ -244,6 +259,7 @@ fn build(
     steps: usize,
     out: Option<&Path>,
     options: &JobOptions,
+    files: ControllerFiles,
 ) -> Result<Built, JobError> {
     let fail = |e: crate::control::ControlError| JobError::Spec(e.to_string());
     let mut built = Built {
@@ -267,13 +283,9 @@ fn build(
             built.extra = json!({ "agent": "expert" });
         }
         ControllerSpec::Policy { agent } => {
-            let file = resolve_policy(
-                &spec.model,
-                &spec.weather,
-                agent.as_deref(),
-                plant,
-                options.verbose,
-            )?;
+            let file = files
+                .policy
+                .ok_or_else(|| JobError::Spec("a policy controller needs its policy".into()))?;
             built.extra = json!({
                 "agent": agent.as_ref().map_or("shipped".into(), |a| a.display().to_string()),
                 "agent_episode": file.episode,
@@ -287,8 +299,7 @@ fn build(
             built.extra = extra;
         }
         ControllerSpec::Rlmpc(rlmpc) => {
-            let (controller, horizon, extra) =
-                build_rlmpc(spec, rlmpc, plant, plant_spec, options.verbose)?;
+            let (controller, horizon, extra) = build_rlmpc(rlmpc, plant, plant_spec, files)?;
             built.controller = Box::new(controller);
             built.label = rlmpc.label();
             built.forecast = horizon;
@@ -330,23 +341,17 @@ fn build_mpc(
 
 /// RL-guided MPC with its horizon in steps and its summary fields.
 fn build_rlmpc(
-    spec: &RunSpec,
     rlmpc: &RlmpcSpec,
     plant: &Arc<Plant>,
     plant_spec: &PlantSpec,
-    verbose: bool,
+    files: ControllerFiles,
 ) -> Result<(Mpc, usize, serde_json::Value), JobError> {
-    let make_guide = guide_factory(
-        plant,
-        rlmpc.guide,
-        &spec.model,
-        &spec.weather,
-        rlmpc.agent.as_deref(),
-        verbose,
-    )?;
+    let make_guide = guide_factory(plant, rlmpc.guide, files.policy)?;
     let value = match rlmpc.terminal_cost {
         CostForm::None => None,
-        _ => Some(resolve_value(&spec.model, &spec.weather, rlmpc, plant)?),
+        _ => Some(files.value.ok_or_else(|| {
+            JobError::Spec("RL-guided MPC with a terminal cost needs a value network".into())
+        })?),
     };
     if let Some(v) = &value {
         if v.guide != rlmpc.guide.name() {

@@ -9,6 +9,7 @@ use crate::lang::model::Model;
 use crate::lang::parse::parse;
 use crate::lang::source::{SourceFile, SourceMap, Span};
 use crate::lang::text::{decode, Decoded};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// Why a model could not be loaded: the diagnostics (errors and warnings) and the sources
@@ -167,14 +168,72 @@ pub fn load_str(name: &str, text: &str) -> Result<Model, CheckFailure> {
     check(loader.sources, loader.diagnostics, statements)
 }
 
+/// Checks a model whose files are given in memory, by path: `root` is the main file, and
+/// each import is looked up as [`load`] would find it on disk (the importing file's folder
+/// joined with the import path). How a compiled controller loads the model it carries.
+///
+/// ```
+/// use std::collections::BTreeMap;
+/// use std::path::{Path, PathBuf};
+///
+/// let mut files = BTreeMap::new();
+/// files.insert(PathBuf::from("plant.ghm"), "import \"common.ghm\"\nder x = -x / tau\n".to_string());
+/// files.insert(PathBuf::from("common.ghm"), "sample 1 [s]\nstate x [m] = 1\nparam tau [s] = 10\n".to_string());
+/// let model = ghm::lang::load_files(Path::new("plant.ghm"), &files).map_err(|e| e.render()).unwrap();
+/// assert_eq!(model.states[0].info.name, "x");
+/// assert_eq!(model.sources.files.len(), 2);
+/// ```
+pub fn load_files(root: &Path, files: &BTreeMap<PathBuf, String>) -> Result<Model, CheckFailure> {
+    let mut loader = Loader {
+        memory: Some(files),
+        ..Loader::default()
+    };
+    let statements = match files.get(root) {
+        Some(text) => loader.file(root, decode(text.clone().into_bytes())),
+        None => {
+            return Err(CheckFailure {
+                sources: SourceMap::default(),
+                diagnostics: vec![Diagnostic::error(
+                    "E009",
+                    Span::default(),
+                    format!("no model file `{}` among the files given", root.display()),
+                )],
+            })
+        }
+    };
+    check(loader.sources, loader.diagnostics, statements)
+}
+
 #[derive(Default)]
-struct Loader {
+struct Loader<'a> {
     sources: SourceMap,
     diagnostics: Vec<Diagnostic>,
     stack: Vec<PathBuf>,
+    /// The files by path, where they are given in memory ([`load_files`]); `None`: the
+    /// file system.
+    memory: Option<&'a BTreeMap<PathBuf, String>>,
 }
 
-impl Loader {
+impl Loader<'_> {
+    /// A path as the import-cycle check compares it: canonical on disk, as given in memory.
+    fn identity(&self, path: &Path) -> PathBuf {
+        match self.memory {
+            Some(_) => path.to_path_buf(),
+            None => path.canonicalize().unwrap_or_else(|_| path.to_path_buf()),
+        }
+    }
+
+    /// The bytes of an imported file.
+    fn read(&self, path: &Path) -> std::io::Result<Vec<u8>> {
+        match self.memory {
+            Some(files) => files
+                .get(path)
+                .map(|text| text.clone().into_bytes())
+                .ok_or_else(|| std::io::Error::from(std::io::ErrorKind::NotFound)),
+            None => std::fs::read(path),
+        }
+    }
+
     /// Parses one file and, in place of each `import`, the statements of the imported file.
     /// A file that is not UTF-8 is an error at its first bad byte, and the rest of it (the
     /// bad bytes replaced) is still parsed, so that its other errors are reported too.
@@ -196,7 +255,7 @@ impl Loader {
                 .help("save the file as UTF-8 (editors offer it as an encoding when saving)"),
             );
         }
-        let canonical = path.canonicalize().unwrap_or_else(|_| path.to_path_buf());
+        let canonical = self.identity(path);
         self.stack.push(canonical);
         let (parsed, diags) = parse(id, &self.sources.files[id].text);
         self.diagnostics.extend(diags);
@@ -204,7 +263,7 @@ impl Loader {
         for s in parsed {
             if let Stmt::Import { path: rel, span } = &s.stmt {
                 let target = path.parent().unwrap_or(Path::new("")).join(rel);
-                let canonical = target.canonicalize().unwrap_or_else(|_| target.clone());
+                let canonical = self.identity(&target);
                 if self.stack.contains(&canonical) {
                     self.diagnostics.push(
                         Diagnostic::error("E020", *span, format!("import cycle: `{rel}` imports itself, directly or through other files"))
@@ -213,7 +272,7 @@ impl Loader {
                     );
                     continue;
                 }
-                match std::fs::read(&target) {
+                match self.read(&target) {
                     Ok(bytes) => out.extend(self.file(&target, decode(bytes))),
                     Err(e) => self.diagnostics.push(
                         Diagnostic::error("E009", *span, format!("cannot import `{rel}`: {e}"))

@@ -11,5 +11,5 @@ pub mod parse;
 pub mod source;
 pub mod text;
 
-pub use load::{load, load_str, CheckFailure};
+pub use load::{load, load_files, load_str, CheckFailure};
 pub use model::Model;
