@@ -362,3 +362,58 @@ fn check_finite(what: &str, values: &[f64], names: &[String]) -> Result<(), Embe
         ))),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn spec(model: &str, controller: ControllerSpec) -> RunSpec {
+        RunSpec {
+            model: Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("models")
+                .join(model),
+            weather: Default::default(),
+            plant: Default::default(),
+            controller,
+        }
+    }
+
+    #[test]
+    fn a_bundle_carries_the_imports_and_builds_without_the_files() {
+        let bundle =
+            Bundle::from_spec(&spec("lettuce-thesis.ghm", ControllerSpec::Expert)).unwrap();
+        let keys: Vec<&Path> = bundle.sources.keys().map(PathBuf::as_path).collect();
+        assert_eq!(
+            keys,
+            [Path::new("lettuce-thesis.ghm"), Path::new("lettuce.ghm")]
+        );
+        assert_eq!(bundle.spec.model, Path::new("lettuce-thesis.ghm"));
+        // Read back from its bytes, in a folder where no model file exists.
+        let again = Bundle::from_bytes(&bundle.to_bytes()).unwrap();
+        assert_eq!(again, bundle);
+        let controller = again.controller().unwrap();
+        assert_eq!(controller.sizes().states, 4);
+    }
+
+    #[test]
+    fn a_bundle_of_another_format_or_a_season_is_refused() {
+        let mut bundle = Bundle::from_spec(&spec("cstr.ghm", ControllerSpec::Expert));
+        // The CSTR has no expert: refused when compiled, not when linked.
+        assert!(bundle.is_err());
+        bundle = Bundle::from_spec(&spec("lettuce.ghm", ControllerSpec::Expert));
+        let mut bundle = bundle.unwrap();
+        bundle.format = "ghm-controller-bundle/0".into();
+        let e = Bundle::from_bytes(&bundle.to_bytes()).unwrap_err();
+        assert!(
+            e.to_string().contains("compile the controller again"),
+            "{e}"
+        );
+        let optimum = ControllerSpec::Optimum(crate::job::OptimumSpec {
+            init_horizon: "1h".into(),
+            solver: None,
+            max_iterations: 10,
+        });
+        let e = Bundle::from_spec(&spec("lettuce.ghm", optimum)).unwrap_err();
+        assert!(e.to_string().contains("only mpc, rlmpc, policy"), "{e}");
+    }
+}
