@@ -328,3 +328,80 @@ fn shards_split_the_jobs_and_merged_give_the_tables_of_the_whole_study_to_the_by
     assert_eq!(without_times(&single).len(), TINY_JOBS + 1);
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// `examples/studies/tiny-agents.toml`: two trainings, three value fits, six seasons.
+const AGENT_JOBS: usize = 2 + 3 + 6;
+
+#[test]
+fn a_study_trains_its_own_agents_before_the_seasons_that_read_them() {
+    let study = "examples/studies/tiny-agents.toml";
+    let dir = temp_dir("study-agents");
+    let d = dir.to_str().unwrap();
+    let (ok, out, err) = ghm(&["study", study, "--out", d, "--threads", "2"]);
+    assert!(ok, "{out}\n{err}");
+    assert!(
+        out.contains(&format!(
+            "{AGENT_JOBS} jobs: {AGENT_JOBS} run now, 0 done before"
+        )),
+        "{out}"
+    );
+    assert_eq!(complete_jobs(&dir), AGENT_JOBS);
+    for trained in ["agents/nominal", "agents/stochastic"] {
+        assert!(dir
+            .join("lettuce")
+            .join(trained)
+            .join("policy.json")
+            .is_file());
+    }
+    for fitted in [
+        "values/nominal-sac",
+        "values/stochastic-sac",
+        "values/expert",
+    ] {
+        assert!(dir
+            .join("lettuce")
+            .join(fitted)
+            .join("value.json")
+            .is_file());
+    }
+    // The seasons read the study's agents: the perturbed plant's for the perturbed season.
+    let canonical = std::fs::canonicalize(&dir).unwrap();
+    let run = |folder: &str| -> serde_json::Value {
+        let text = std::fs::read_to_string(dir.join(folder).join("run.json")).unwrap();
+        serde_json::from_str(&text).unwrap()
+    };
+    let spec = &run("lettuce/rl-mpc/1h/stochastic-00")["spec"]["controller"];
+    let named = |key: &str| std::path::PathBuf::from(spec[key].as_str().unwrap());
+    assert_eq!(named("agent"), canonical.join("lettuce/agents/stochastic"));
+    assert_eq!(
+        named("value"),
+        canonical.join("lettuce/values/stochastic-sac")
+    );
+    let training = &run("lettuce/agents/stochastic")["spec"];
+    assert_eq!(training["stochastic"], true);
+    assert_eq!(training["uncertainty"], 0.05);
+    // Only the seasons are rows of the results.
+    assert_eq!(results(&dir).len(), 6);
+
+    // A training interrupted after its last checkpoint continues from it, and what reads
+    // it is not run again.
+    let run_json = dir.join("lettuce/agents/nominal/run.json");
+    let text = std::fs::read_to_string(&run_json).unwrap();
+    std::fs::write(&run_json, text.replace("\"complete\"", "\"running\"")).unwrap();
+    let (ok, out, err) = ghm(&["study", study, "--out", d]);
+    assert!(ok, "{out}\n{err}");
+    assert!(
+        out.contains(&format!(
+            "{AGENT_JOBS} jobs: 1 run now, {} done before",
+            AGENT_JOBS - 1
+        )),
+        "{out}"
+    );
+    let summary: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.join("lettuce/agents/nominal/summary.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(summary["this_session"]["environment_steps"], 0, "{summary}");
+    assert_eq!(summary["episodes_done"], 3);
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -1,23 +1,12 @@
-//! `ghm value`: the value network of RL-guided MPC. Rolls a guide out from states
-//! scattered around its own season (in parallel), fits `V(x_i, k)` to the returns with
-//! burn, and writes `value.json` (what `ghm rlmpc --value` loads), the learning curve
-//! (CSV and PNG) and `summary.json` (losses, timings, and the value predicted at the
-//! season start beside the return the guide earned from there).
+//! `ghm value`: the value network of RL-guided MPC. The flags map onto a value-fit job
+//! (`job::value`), which rolls the guide out, fits the network and writes `value.json`,
+//! the learning curve and `summary.json`.
 
 use crate::cli::CliError;
-use crate::control::ValueFile;
-use crate::job::build::{guide_factory, resolve_guide_policy, GuideFactory};
-use crate::job::output::{model_hash, progress_bar as bar, write_atomically, write_summary};
-use crate::job::{load_model, GuideChoice, RunFolder, WeatherSpec};
-use crate::model::Plant;
-use crate::report::plot::{draw_xy, Line};
-use crate::rl::value_fit::{fit_value, EpochLoss, ValueFitConfig};
-use crate::sim::value_data::{nominal_run, sample_returns, ValueDataConfig};
+use crate::job::value::{run_value_job, ValueSpec};
+use crate::job::{GuideChoice, JobOptions, WeatherSpec};
 use clap::Args;
-use serde_json::json;
-use std::path::{Path, PathBuf};
-use std::sync::Arc;
-use std::time::Instant;
+use std::path::PathBuf;
 
 #[derive(Debug, Args)]
 pub struct ValueArgs {
@@ -55,230 +44,21 @@ pub struct ValueArgs {
     pub overwrite: bool,
 }
 
-/// The most guide roll-outs one fit may sample.
-const MAX_TRAJECTORIES: usize = 10_000_000;
-/// The most training epochs of one fit.
-const MAX_EPOCHS: usize = 1_000_000;
-
 pub fn run(args: &ValueArgs) -> Result<(), CliError> {
-    if !(args.spread >= 0.0 && args.spread < 1.0) {
-        return Err(CliError::Argument("--spread must be in [0, 1)".into()));
-    }
-    if args.trajectories == 0 || args.epochs == 0 {
-        return Err(CliError::Argument(
-            "--trajectories and --epochs must be at least 1".into(),
-        ));
-    }
-    // Refused before anything is allocated for them (the samples, the learning curve).
-    if args.trajectories > MAX_TRAJECTORIES || args.epochs > MAX_EPOCHS {
-        return Err(CliError::Argument(format!(
-            "--trajectories {} / --epochs {}: at most {MAX_TRAJECTORIES} trajectories and {MAX_EPOCHS} epochs",
-            args.trajectories, args.epochs
-        )));
-    }
-    let model = load_model(&args.file)?;
-    let plant = Arc::new(Plant::new(model));
-    let state_index = match &args.state {
-        None => 0,
-        Some(name) => plant
-            .model
-            .states
-            .iter()
-            .position(|s| &s.info.name == name)
-            .ok_or_else(|| CliError::Argument(format!("--state {name}: no such state")))?,
-    };
-    let steps = args.weather.steps(&plant.model)?;
-    let weather = args.weather.load(&plant.model, steps, 0)?;
-    let policy = resolve_guide_policy(
-        args.guide,
-        &args.file,
-        &args.weather,
-        args.agent.as_deref(),
-        &plant,
-        true,
-    )?;
-    let make_guide = guide_factory(&plant, args.guide, policy)?;
-    let folder = RunFolder::claim(&args.out, args.overwrite, None)?;
-    folder.finish(fit_and_write(
-        args,
-        &plant,
-        state_index,
-        steps,
-        &weather,
-        &make_guide,
-    ))
-}
-
-/// Rolls the guide out, fits the value network and writes the run's files.
-fn fit_and_write(
-    args: &ValueArgs,
-    plant: &Arc<Plant>,
-    state_index: usize,
-    steps: usize,
-    weather: &crate::sim::weather::Weather,
-    make_guide: &GuideFactory,
-) -> Result<(), CliError> {
-    let started = Instant::now();
-    let mut guide = make_guide();
-    let nominal = nominal_run(plant, weather, steps, guide.as_mut())?;
-    let progress = bar(
-        args.trajectories as u64,
-        "roll-outs {bar:30} {pos}/{len} [{elapsed_precise}, eta {eta}]",
-    );
-    let data = sample_returns(
-        plant,
-        weather,
-        steps,
-        &nominal,
-        &|| make_guide() as Box<dyn crate::control::Controller>,
-        &ValueDataConfig {
-            trajectories: args.trajectories,
-            spread: args.spread,
-            seed: args.seed,
-            state_index,
-        },
-        &|done| progress.set_position(done as u64),
-    )?;
-    progress.finish_and_clear();
-    let rollout_s = started.elapsed().as_secs_f64();
-    println!(
-        "{} roll-outs ({} dropped: state diverged), {} points in {rollout_s:.1} s on {} threads",
-        data.trajectories,
-        data.dropped,
-        data.returns.len(),
-        rayon::current_num_threads()
-    );
-
-    // The input box of (x_i, k): the paper's (0.002, 0) … (0.6, 1920) for the lettuce
-    // dry weight; in general the data's range with a margin.
-    let xs = data.features.iter().step_by(2);
-    let (lo, hi) = xs.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-        (a.min(*v), b.max(*v))
-    });
-    if !(lo.is_finite() && hi.is_finite()) {
-        return Err(CliError::Argument(
-            "no roll-out survived; nothing to fit".into(),
-        ));
-    }
-    let margin = 0.1 * (hi - lo).max(1e-9);
-    let lower = [lo - margin, 0.0];
-    let upper = [hi + margin, steps as f64];
-    let config = ValueFitConfig {
+    let spec = ValueSpec {
+        model: args.file.clone(),
+        weather: args.weather.clone(),
+        guide: args.guide,
+        agent: args.agent.clone(),
+        trajectories: args.trajectories,
+        spread: args.spread,
+        state: args.state.clone(),
         epochs: args.epochs,
         seed: args.seed,
-        ..ValueFitConfig::default()
     };
-    let fit_bar = bar(
-        args.epochs as u64,
-        "fit {bar:30} epoch {pos}/{len} {msg} [{elapsed_precise}, eta {eta}]",
-    );
-    let fit_started = Instant::now();
-    let (function, curve) = fit_value(
-        &data.features,
-        2,
-        &data.returns,
-        &lower,
-        &upper,
-        &config,
-        &mut |e: &EpochLoss| {
-            if fit_bar.is_hidden() && e.epoch % 10 == 0 {
-                println!(
-                    "epoch {:>4}: train {:.3e}, validation {:.3e} ({:.0} s)",
-                    e.epoch,
-                    e.train,
-                    e.validation,
-                    fit_started.elapsed().as_secs_f64()
-                );
-            }
-            fit_bar.set_position(e.epoch as u64);
-            fit_bar.set_message(format!(
-                "train {:.3e}, validation {:.3e}",
-                e.train, e.validation
-            ));
-        },
-    )
-    .map_err(|e| CliError::Argument(e.to_string()))?;
-    fit_bar.finish_and_clear();
-    let fit_s = fit_started.elapsed().as_secs_f64();
-    let last = curve.last().copied().unwrap_or(EpochLoss {
-        epoch: 0,
-        train: f64::NAN,
-        validation: f64::NAN,
-    });
-    let value = ValueFile {
-        model: plant.model.name.clone(),
-        guide: args.guide.name().to_string(),
-        state_index,
-        state_name: plant.model.states[state_index].info.name.clone(),
-        function,
-        train_loss: last.train,
-        validation_loss: last.validation,
+    let options = JobOptions {
+        overwrite: args.overwrite,
+        verbose: true,
     };
-    write_atomically(&args.out.join("value.json"), |path| value.save(path))?;
-    write_curve(&args.out, &curve)?;
-    let predicted = value.value(&nominal.states[0], 0);
-    println!(
-        "fit: {} epochs in {fit_s:.1} s; final MSE train {:.3e}, validation {:.3e}",
-        curve.len(),
-        last.train,
-        last.validation
-    );
-    println!(
-        "value at the season start {predicted:+.4}; the guide earned {:+.4} from there",
-        nominal.cumulative_reward
-    );
-    let summary = json!({
-        "command": std::env::args().collect::<Vec<_>>(),
-        "model": args.file.display().to_string(),
-        "model_sha256": model_hash(plant),
-        "weather": args.weather.describe(&plant.model),
-        "guide": args.guide.name(),
-        "agent": args.agent.as_ref().map(|a| a.display().to_string()),
-        "trajectories": data.trajectories,
-        "dropped": data.dropped,
-        "points": data.returns.len(),
-        "spread": args.spread,
-        "seed": args.seed,
-        "state": value.state_name,
-        "input_box": { "lower": lower, "upper": upper },
-        "fit": config,
-        "train_loss": last.train,
-        "validation_loss": last.validation,
-        "start_value": predicted,
-        "start_return": nominal.cumulative_reward,
-        "rollout_s": rollout_s,
-        "fit_s": fit_s,
-        "threads": rayon::current_num_threads(),
-    });
-    write_summary(&args.out, &summary)?;
-    println!(
-        "wrote {0}/value.json, value_curve.csv, value_curve.png, summary.json",
-        args.out.display()
-    );
-    Ok(())
-}
-
-fn write_curve(dir: &Path, curve: &[EpochLoss]) -> Result<(), CliError> {
-    let mut csv = String::from("epoch,train_mse,validation_mse\n");
-    for e in curve {
-        csv += &format!("{},{},{}\n", e.epoch, e.train, e.validation);
-    }
-    write_atomically(&dir.join("value_curve.csv"), |path| {
-        std::fs::write(path, &csv)
-    })?;
-    let x: Vec<f64> = curve.iter().map(|e| e.epoch as f64).collect();
-    let log10 = |v: f64| if v > 0.0 { v.log10() } else { f64::NAN };
-    let lines = [
-        Line {
-            label: "train".into(),
-            values: curve.iter().map(|e| log10(e.train)).collect(),
-        },
-        Line {
-            label: "validation".into(),
-            values: curve.iter().map(|e| log10(e.validation)).collect(),
-        },
-    ];
-    Ok(write_atomically(&dir.join("value_curve.png"), |path| {
-        draw_xy("value network fit", "epoch", "log10 MSE", &x, &lines, path)
-    })?)
+    Ok(run_value_job(&spec, &args.out, &options)?)
 }

@@ -9,7 +9,7 @@
 //! stale file stays beside new ones. Files ghm does not write are never touched.
 
 use crate::job::output::io_err;
-use crate::job::{JobError, RunSpec};
+use crate::job::JobError;
 use crate::report::atomic;
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -95,7 +95,7 @@ impl RunFolder {
     pub fn claim(
         dir: &Path,
         overwrite: bool,
-        spec: Option<&RunSpec>,
+        spec: Option<serde_json::Value>,
     ) -> Result<RunFolder, JobError> {
         check(dir, overwrite)?;
         let found = run_files(dir);
@@ -111,20 +111,23 @@ impl RunFolder {
             };
             removed.map_err(io_err(&path))?;
         }
-        let mut folder = RunFolder::continue_in(dir)?;
-        if let Some(spec) = spec {
-            folder.spec = serde_json::to_value(spec).unwrap_or_default();
-            folder.mark("running", None)?;
-        }
-        Ok(folder)
-    }
-
-    /// Claims `dir` to continue the run in it (a resumed training), keeping its files.
-    pub fn continue_in(dir: &Path) -> Result<RunFolder, JobError> {
         std::fs::create_dir_all(dir).map_err(io_err(dir))?;
         let folder = RunFolder {
             dir: dir.to_path_buf(),
-            spec: serde_json::Value::Null,
+            spec: spec.unwrap_or(serde_json::Value::Null),
+        };
+        folder.mark("running", None)?;
+        Ok(folder)
+    }
+
+    /// Claims `dir` to continue the run in it (a resumed training), keeping its files and
+    /// the spec its `run.json` records.
+    pub fn continue_in(dir: &Path) -> Result<RunFolder, JobError> {
+        std::fs::create_dir_all(dir).map_err(io_err(dir))?;
+        let spec = recorded(dir).map_or(serde_json::Value::Null, |(_, spec)| spec);
+        let folder = RunFolder {
+            dir: dir.to_path_buf(),
+            spec,
         };
         folder.mark("running", None)?;
         Ok(folder)

@@ -16,6 +16,8 @@ pub mod folder;
 pub mod output;
 mod season;
 mod spec;
+pub mod train;
+pub mod value;
 mod weather;
 
 pub use build::{load_model, ControllerFiles};

@@ -160,7 +160,7 @@ fn run_prepared(
     options: &JobOptions,
     prepared: Prepared,
 ) -> Result<SeasonOutcome, JobError> {
-    let run = RunFolder::claim(out, options.overwrite, Some(spec))?;
+    let run = RunFolder::claim(out, options.overwrite, Some(json!(spec)))?;
     let label = prepared.built.label.clone();
     let unit = prepared.built.plant.model.objective_unit();
     let metrics = run.finish(season_files(spec, out, prepared, options))?;

@@ -280,7 +280,9 @@ impl BandsChoice {
 }
 
 /// Which policy guides RL-guided MPC.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, ValueEnum, Serialize, Deserialize)]
+#[derive(
+    Debug, Clone, Copy, Default, PartialEq, Eq, PartialOrd, Ord, ValueEnum, Serialize, Deserialize,
+)]
 #[serde(rename_all = "lowercase")]
 pub enum GuideChoice {
     /// The trained SAC policy (`--agent`, or the one shipped for the model).

@@ -1,6 +1,9 @@
 //! A study file (TOML) and the jobs it plans: one season per (model, controller, horizon,
-//! scenario), and the season optimum per model where asked, each with its own run folder
-//! under the study's output folder.
+//! scenario), the season optimum per model where asked, and, with `[agents]`, the
+//! trainings and value fits the policies and RL-guided MPC of the study read (instead of
+//! the agents shipped with the model), each with its own run folder under the study's
+//! output folder. A job names the folders of the jobs it reads ([`Job::needs`]); they are
+//! always of an earlier phase ([`Work::phase`]): trainings, then value fits, then seasons.
 //!
 //! ```toml
 //! models = ["../models/lettuce.ghm"]     # paths are relative to the study file
@@ -19,9 +22,15 @@
 //! [[controllers]]
 //! name = "MPC"
 //! kind = "mpc"                            # inputs, expert, policy, mpc, rlmpc
+//!
+//! [agents]                                # train the agents and value networks (optional)
+//! episodes = 100
+//! stochastic = true                       # the stochastic scenarios' on the perturbed plant
 //! ```
 
-use crate::job::{ControllerSpec, PlantSpec, RunSpec, WeatherSpec};
+use crate::job::train::TrainSpec;
+use crate::job::value::ValueSpec;
+use crate::job::{ControllerSpec, CostForm, GuideChoice, PlantSpec, RunSpec, WeatherSpec};
 use crate::study::StudyError;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -41,6 +50,40 @@ struct StudyFile {
     scenarios: Scenarios,
     #[serde(default)]
     controllers: Vec<toml::Table>,
+    #[serde(default)]
+    agents: Option<Agents>,
+}
+
+/// `[agents]`: the trainings and value fits of the study's own agents (`ghm train` and
+/// `ghm value` options, by their names).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+struct Agents {
+    episodes: usize,
+    warmup: usize,
+    seed: u64,
+    checkpoint_every: usize,
+    /// The stochastic scenarios' agents (and value networks) are trained on the perturbed
+    /// plant (the scenarios' δ); otherwise every scenario uses the nominal plant's.
+    stochastic: bool,
+    trajectories: usize,
+    spread: f64,
+    epochs: usize,
+}
+
+impl Default for Agents {
+    fn default() -> Self {
+        Agents {
+            episodes: 100,
+            warmup: 9,
+            seed: 4,
+            checkpoint_every: 5,
+            stochastic: true,
+            trajectories: 1000,
+            spread: 0.5,
+            epochs: 200,
+        }
+    }
 }
 
 /// Which plants each controller's seasons run on.
@@ -67,11 +110,62 @@ impl Default for Scenarios {
 /// The largest number of stochastic scenarios a study may ask for.
 const MAX_SCENARIOS: usize = 10_000;
 
-/// One planned season.
+/// What a job runs.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Work {
+    /// A season (or the season optimum).
+    Season(RunSpec),
+    /// A training of a SAC agent.
+    Train(TrainSpec),
+    /// A value network fitted to a guide's returns.
+    Value(ValueSpec),
+}
+
+impl Work {
+    /// The job's kind in `study.json`.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Work::Season(_) => "season",
+            Work::Train(_) => "train",
+            Work::Value(_) => "value",
+        }
+    }
+
+    /// The phase it runs in: a job reads only jobs of earlier phases.
+    pub fn phase(&self) -> usize {
+        match self {
+            Work::Train(_) => 0,
+            Work::Value(_) => 1,
+            Work::Season(_) => 2,
+        }
+    }
+
+    /// The spec as `run.json` records it.
+    pub fn spec_json(&self) -> serde_json::Value {
+        let value = match self {
+            Work::Season(s) => serde_json::to_value(s),
+            Work::Train(s) => serde_json::to_value(s),
+            Work::Value(s) => serde_json::to_value(s),
+        };
+        value.unwrap_or_default()
+    }
+
+    /// The season's spec, for seasons.
+    pub fn season(&self) -> Option<&RunSpec> {
+        match self {
+            Work::Season(s) => Some(s),
+            _ => None,
+        }
+    }
+}
+
+/// One planned job.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Job {
     /// What to run.
-    pub spec: RunSpec,
+    pub work: Work,
+    /// The folders (relative to the study's output folder) of the jobs it reads.
+    pub needs: Vec<PathBuf>,
     /// Its run folder, relative to the study's output folder.
     pub folder: PathBuf,
     /// The model's file stem (a table's first column).
@@ -80,13 +174,15 @@ pub struct Job {
     pub controller: String,
     /// The horizon as written, empty for controllers without one.
     pub horizon: String,
-    /// `nominal` or `stochastic-NN`.
+    /// `nominal` or `stochastic-NN` (for a training or value fit: the plant it is for).
     pub scenario: String,
 }
 
 /// Reads the study file at `path` and plans its jobs, in a fixed order (the shards rely
-/// on it): per model, the optimum first, then per controller, horizon and scenario.
-pub fn plan(path: &Path) -> Result<Vec<Job>, StudyError> {
+/// on it): per model, the trainings and value fits, the optimum, then per controller,
+/// horizon and scenario. `out` is the study's output folder (the seasons read their
+/// agents from the trainings' folders in it).
+pub fn plan(path: &Path, out: &Path) -> Result<Vec<Job>, StudyError> {
     let text = std::fs::read_to_string(path).map_err(|e| StudyError::File {
         path: path.to_path_buf(),
         message: e.to_string(),
@@ -96,13 +192,13 @@ pub fn plan(path: &Path) -> Result<Vec<Job>, StudyError> {
         message: e.to_string(),
     })?;
     let base = path.parent().unwrap_or(Path::new("."));
-    plan_file(file, base).map_err(|message| StudyError::File {
+    plan_file(file, base, out).map_err(|message| StudyError::File {
         path: path.to_path_buf(),
         message,
     })
 }
 
-fn plan_file(file: StudyFile, base: &Path) -> Result<Vec<Job>, String> {
+fn plan_file(file: StudyFile, base: &Path, out: &Path) -> Result<Vec<Job>, String> {
     if file.models.is_empty() {
         return Err("`models` names no model file".into());
     }
@@ -158,9 +254,16 @@ fn plan_file(file: StudyFile, base: &Path) -> Result<Vec<Job>, String> {
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_else(|| "model".into());
+        let mut own = OwnAgents {
+            agents: file.agents.as_ref(),
+            stem: &stem,
+            out,
+            used: std::collections::BTreeSet::new(),
+        };
+        let mut seasons = Vec::new();
         if file.optimum {
-            jobs.push(Job {
-                spec: RunSpec {
+            seasons.push(Job {
+                work: Work::Season(RunSpec {
                     model: model_path.clone(),
                     weather: weather.clone(),
                     plant: PlantSpec::NOMINAL,
@@ -169,7 +272,8 @@ fn plan_file(file: StudyFile, base: &Path) -> Result<Vec<Job>, String> {
                         solver: None,
                         max_iterations: 500,
                     }),
-                },
+                }),
+                needs: Vec::new(),
                 folder: Path::new(&stem).join("optimum"),
                 model: stem.clone(),
                 controller: "optimum".into(),
@@ -197,13 +301,15 @@ fn plan_file(file: StudyFile, base: &Path) -> Result<Vec<Job>, String> {
                         folder.push(slug(horizon));
                     }
                     folder.push(scenario);
-                    jobs.push(Job {
-                        spec: RunSpec {
+                    let (controller, needs) = own.attach(spec.clone(), plant);
+                    seasons.push(Job {
+                        work: Work::Season(RunSpec {
                             model: model_path.clone(),
                             weather: weather.clone(),
                             plant: plant.clone(),
-                            controller: spec.clone(),
-                        },
+                            controller,
+                        }),
+                        needs,
                         folder,
                         model: stem.clone(),
                         controller: c.name.clone(),
@@ -213,8 +319,165 @@ fn plan_file(file: StudyFile, base: &Path) -> Result<Vec<Job>, String> {
                 }
             }
         }
+        jobs.extend(own.jobs(&model_path, &weather, s));
+        jobs.extend(seasons);
     }
     Ok(jobs)
+}
+
+/// A study's own agents for one model: which trainings and value fits its seasons read.
+struct OwnAgents<'a> {
+    agents: Option<&'a Agents>,
+    stem: &'a str,
+    out: &'a Path,
+    /// (plant kind, guide's value or the agent itself) pairs the seasons read.
+    used: std::collections::BTreeSet<(&'static str, Own)>,
+}
+
+/// What a season reads of the study's own agents.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+enum Own {
+    /// The trained agent.
+    Agent,
+    /// The value network of a guide.
+    Value(GuideChoice),
+}
+
+impl OwnAgents<'_> {
+    /// The plant an agent for `plant` is trained on: `nominal` or `stochastic`.
+    fn kind(&self, plant: &PlantSpec, agents: &Agents) -> &'static str {
+        if agents.stochastic && plant.uncertainty > 0.0 {
+            "stochastic"
+        } else {
+            "nominal"
+        }
+    }
+
+    /// The folder of a training or value fit, relative to the output folder.
+    fn folder(&self, kind: &str, what: Own) -> PathBuf {
+        match what {
+            Own::Agent => Path::new(self.stem).join("agents").join(kind),
+            // The expert's value fit does not depend on any training.
+            Own::Value(GuideChoice::Expert) => Path::new(self.stem).join("values").join("expert"),
+            Own::Value(GuideChoice::Sac) => Path::new(self.stem)
+                .join("values")
+                .join(format!("{kind}-sac")),
+        }
+    }
+
+    /// The controller with the study's own agent and value network where it names none,
+    /// and the folders it then reads.
+    fn attach(
+        &mut self,
+        mut controller: ControllerSpec,
+        plant: &PlantSpec,
+    ) -> (ControllerSpec, Vec<PathBuf>) {
+        let mut needs = Vec::new();
+        let Some(agents) = self.agents else {
+            return (controller, needs);
+        };
+        let kind = self.kind(plant, agents);
+        let mut use_own = |what: Own, needs: &mut Vec<PathBuf>| {
+            let kind = match what {
+                Own::Value(GuideChoice::Expert) => "nominal",
+                _ => kind,
+            };
+            self.used.insert((kind, what));
+            let folder = self.folder(kind, what);
+            needs.push(folder.clone());
+            self.out.join(folder)
+        };
+        match &mut controller {
+            ControllerSpec::Policy { agent } if agent.is_none() => {
+                *agent = Some(use_own(Own::Agent, &mut needs));
+            }
+            ControllerSpec::Rlmpc(r) => {
+                if r.guide == GuideChoice::Sac && r.agent.is_none() {
+                    r.agent = Some(use_own(Own::Agent, &mut needs));
+                }
+                if r.terminal_cost != CostForm::None && r.value.is_none() {
+                    r.value = Some(use_own(Own::Value(r.guide), &mut needs));
+                }
+            }
+            _ => {}
+        }
+        (controller, needs)
+    }
+
+    /// The trainings and value fits the seasons read, trainings first.
+    fn jobs(&self, model: &Path, weather: &WeatherSpec, scenarios: &Scenarios) -> Vec<Job> {
+        let Some(agents) = self.agents else {
+            return Vec::new();
+        };
+        let mut trainings: Vec<&'static str> = Vec::new();
+        for (kind, what) in &self.used {
+            let needs_agent = *what == Own::Agent || *what == Own::Value(GuideChoice::Sac);
+            if needs_agent && !trainings.contains(kind) {
+                trainings.push(kind);
+            }
+        }
+        trainings.sort_unstable();
+        let job = |work: Work, needs: Vec<PathBuf>, folder: PathBuf, name: &str, kind: &str| Job {
+            work,
+            needs,
+            folder,
+            model: self.stem.to_string(),
+            controller: name.to_string(),
+            horizon: String::new(),
+            scenario: kind.to_string(),
+        };
+        let mut jobs = Vec::new();
+        for kind in &trainings {
+            let stochastic = *kind == "stochastic";
+            let spec = TrainSpec {
+                model: model.to_path_buf(),
+                weather: weather.clone(),
+                stochastic,
+                uncertainty: if stochastic {
+                    scenarios.uncertainty
+                } else {
+                    0.0
+                },
+                seed: agents.seed,
+                episodes: agents.episodes,
+                warmup: agents.warmup,
+                checkpoint_every: agents.checkpoint_every,
+            };
+            jobs.push(job(
+                Work::Train(spec),
+                Vec::new(),
+                self.folder(kind, Own::Agent),
+                "training",
+                kind,
+            ));
+        }
+        for (kind, what) in &self.used {
+            let Own::Value(guide) = *what else {
+                continue;
+            };
+            let agent = (guide == GuideChoice::Sac).then(|| self.folder(kind, Own::Agent));
+            let spec = ValueSpec {
+                model: model.to_path_buf(),
+                weather: weather.clone(),
+                guide,
+                agent: agent.as_ref().map(|a| self.out.join(a)),
+                trajectories: agents.trajectories,
+                spread: agents.spread,
+                state: None,
+                epochs: agents.epochs,
+                seed: agents.seed,
+            };
+            let name = format!("value fit ({})", guide.name());
+            jobs.push(job(
+                Work::Value(spec),
+                agent.into_iter().collect(),
+                self.folder(kind, *what),
+                &name,
+                kind,
+            ));
+        }
+        jobs
+    }
 }
 
 /// A `[[controllers]]` entry: its name, kind and the rest of its fields.
@@ -323,7 +586,7 @@ mod tests {
 
     fn plan_text(text: &str) -> Result<Vec<Job>, String> {
         let file: StudyFile = toml::from_str(text).map_err(|e| e.to_string())?;
-        plan_file(file, Path::new("studies"))
+        plan_file(file, Path::new("studies"), Path::new("/out"))
     }
 
     #[test]
@@ -357,17 +620,98 @@ mod tests {
             jobs[3].folder,
             Path::new("lettuce/rl-mpc-expert/1h/stochastic-01")
         );
-        assert_eq!(jobs[3].spec.plant.seed, 2);
+        let season = |k: usize| jobs[k].work.season().unwrap();
+        assert_eq!(season(3).plant.seed, 2);
         assert_eq!(jobs[9].folder, Path::new("lettuce/expert/stochastic-01"));
-        assert_eq!(
-            jobs[1].spec.model,
-            Path::new("studies/../models/lettuce.ghm")
-        );
-        assert_eq!(jobs[1].spec.weather.days, Some(2.0));
-        let ControllerSpec::Rlmpc(r) = &jobs[4].spec.controller else {
-            panic!("{:?}", jobs[4].spec.controller);
+        assert_eq!(season(1).model, Path::new("studies/../models/lettuce.ghm"));
+        assert_eq!(season(1).weather.days, Some(2.0));
+        let ControllerSpec::Rlmpc(r) = &season(4).controller else {
+            panic!("{:?}", season(4).controller);
         };
         assert_eq!(r.horizon, "6h");
+        assert!(jobs.iter().all(|j| j.needs.is_empty()));
+    }
+
+    #[test]
+    fn own_agents_are_trained_and_fitted_before_the_seasons_that_read_them() {
+        let jobs = plan_text(
+            r#"
+            models = ["../models/lettuce.ghm"]
+            horizons = ["1h"]
+            [scenarios]
+            stochastic = 1
+            uncertainty = 0.05
+            [agents]
+            episodes = 3
+            warmup = 1
+            [[controllers]]
+            name = "SAC"
+            kind = "policy"
+            [[controllers]]
+            name = "RL-MPC"
+            kind = "rlmpc"
+            [[controllers]]
+            name = "RL-MPC (expert)"
+            kind = "rlmpc"
+            guide = "expert"
+            [[controllers]]
+            name = "given"
+            kind = "policy"
+            agent = "agents/mine"
+            "#,
+        )
+        .unwrap();
+        let folders: Vec<String> = jobs
+            .iter()
+            .map(|j| j.folder.display().to_string())
+            .collect();
+        assert_eq!(
+            folders[..5],
+            [
+                "lettuce/agents/nominal",
+                "lettuce/agents/stochastic",
+                "lettuce/values/nominal-sac",
+                "lettuce/values/expert",
+                "lettuce/values/stochastic-sac",
+            ]
+        );
+        let Work::Train(train) = &jobs[1].work else {
+            panic!("{:?}", jobs[1].work);
+        };
+        assert!(train.stochastic && train.uncertainty == 0.05 && train.episodes == 3);
+        let Work::Value(value) = &jobs[4].work else {
+            panic!("{:?}", jobs[4].work);
+        };
+        assert_eq!(
+            value.agent.as_deref(),
+            Some(Path::new("/out/lettuce/agents/stochastic"))
+        );
+        assert_eq!(jobs[4].needs, [Path::new("lettuce/agents/stochastic")]);
+        // Phases: every job reads only jobs planned before it, of an earlier phase.
+        for (k, job) in jobs.iter().enumerate() {
+            for need in &job.needs {
+                let i = jobs.iter().position(|j| &j.folder == need).unwrap();
+                assert!(i < k && jobs[i].work.phase() < job.work.phase(), "{need:?}");
+            }
+        }
+        let by_folder = |f: &str| jobs.iter().find(|j| j.folder == Path::new(f)).unwrap();
+        let rlmpc = by_folder("lettuce/rl-mpc/1h/stochastic-00");
+        let Some(ControllerSpec::Rlmpc(r)) = rlmpc.work.season().map(|s| &s.controller) else {
+            panic!();
+        };
+        assert_eq!(
+            r.agent.as_deref(),
+            Some(Path::new("/out/lettuce/agents/stochastic"))
+        );
+        assert_eq!(
+            r.value.as_deref(),
+            Some(Path::new("/out/lettuce/values/stochastic-sac"))
+        );
+        let expert = by_folder("lettuce/rl-mpc-expert/1h/nominal");
+        assert_eq!(expert.needs, [Path::new("lettuce/values/expert")]);
+        // A controller that names its agent reads it, not the study's.
+        let given = by_folder("lettuce/given/nominal");
+        assert!(given.needs.is_empty());
     }
 
     #[test]

@@ -70,6 +70,10 @@ pub fn gather(dirs: &[PathBuf]) -> Result<Vec<JobRow>, StudyError> {
             })?;
         for (plan_index, job) in plan["jobs"].as_array().into_iter().flatten().enumerate() {
             let text = |key: &str| job[key].as_str().unwrap_or_default().to_string();
+            // Trainings and value fits have no season's figures (plans before them: seasons).
+            if job["kind"].as_str().is_some_and(|k| k != "season") {
+                continue;
+            }
             let job_dir = dir.join(text("folder"));
             if !matches!(folder::recorded(&job_dir), Some((s, _)) if s == "complete") {
                 continue;

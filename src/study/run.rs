@@ -4,9 +4,11 @@
 
 use crate::job::folder;
 use crate::job::output::{io_err, progress_bar};
+use crate::job::train::run_train_job;
+use crate::job::value::run_value_job;
 use crate::job::{run_season_job, JobError, JobOptions};
 use crate::report::atomic;
-use crate::study::plan::{plan, Job};
+use crate::study::plan::{plan, Job, Work};
 use crate::study::report;
 use crate::study::StudyError;
 use rayon::prelude::*;
@@ -92,7 +94,7 @@ fn found(job: &Job, out: &Path) -> Found {
     let Some((status, spec)) = folder::recorded(&out.join(&job.folder)) else {
         return Found::ToRun;
     };
-    let same = serde_json::to_value(&job.spec).is_ok_and(|s| s == spec);
+    let same = job.work.spec_json() == spec;
     match status.as_str() {
         "complete" if same => Found::Done,
         "failed" if same => Found::Failed,
@@ -107,8 +109,11 @@ pub fn run_study(
     out: &Path,
     options: &StudyOptions,
 ) -> Result<StudyOutcome, StudyError> {
-    let all = plan(path)?;
     std::fs::create_dir_all(out).map_err(io_err(out))?;
+    // The trainings' folders are named in the seasons' specs: one spelling of the folder,
+    // however the study is reached.
+    let out = &std::fs::canonicalize(out).map_err(io_err(out))?;
+    let all = plan(path, out)?;
     write_plan(out, path, &all)?;
     let jobs: Vec<&Job> = all
         .iter()
@@ -147,6 +152,8 @@ pub fn run_study(
         options.threads,
         if options.threads == 1 { "" } else { "s" }
     );
+    // Phase by phase (trainings, value fits, seasons): a job reads only earlier phases'.
+    pending.sort_by_key(|job| job.work.phase());
     let results = run_pending(&pending, out, options, jobs.len() - pending.len())?;
     for (job, result) in pending.iter().zip(results) {
         match result {
@@ -193,42 +200,98 @@ fn run_pending(
         .map_err(|e| StudyError::Shard(format!("cannot start the study's threads: {e}")))?;
     let running = AtomicUsize::new(0);
     let finished = AtomicUsize::new(done_before);
-    let results = pool.install(|| {
-        pending
-            .par_iter()
-            .map(|job| {
-                let now = running.fetch_add(1, Ordering::SeqCst) + 1;
-                bar.set_message(format!(
-                    "{now} running, last started {}",
-                    job.folder.display()
-                ));
-                let clock = Instant::now();
-                let job_options = JobOptions {
-                    overwrite: true,
-                    verbose: false,
-                };
-                let result = run_season_job(&job.spec, &out.join(&job.folder), &job_options);
-                running.fetch_sub(1, Ordering::SeqCst);
-                let k = finished.fetch_add(1, Ordering::SeqCst) + 1;
-                let line = match &result {
-                    Ok(o) => format!(
-                        "[{k}/{total}] {}: cumulative reward {:+.4} {}, {} failed solves ({:.1} s)",
-                        job.folder.display(),
-                        o.metrics.cumulative_reward,
-                        o.unit,
-                        o.metrics.solve.failed_solves,
-                        clock.elapsed().as_secs_f64()
-                    ),
-                    Err(e) => format!("[{k}/{total}] {}: failed: {e}", job.folder.display()),
-                };
-                bar.suspend(|| eprintln!("{line}"));
-                bar.inc(1);
-                result.map(|_| ())
-            })
-            .collect()
-    });
+    let mut results = Vec::with_capacity(pending.len());
+    for phase in pending.chunk_by(|a, b| a.work.phase() == b.work.phase()) {
+        results.extend(pool.install(|| {
+            phase
+                .par_iter()
+                .map(|job| {
+                    let now = running.fetch_add(1, Ordering::SeqCst) + 1;
+                    bar.set_message(format!(
+                        "{now} running, last started {}",
+                        job.folder.display()
+                    ));
+                    let clock = Instant::now();
+                    let result = wait_for_needs(job, out, options.shard.is_some())
+                        .and_then(|()| run_job(job, out));
+                    running.fetch_sub(1, Ordering::SeqCst);
+                    let k = finished.fetch_add(1, Ordering::SeqCst) + 1;
+                    let line = match &result {
+                        Ok(what) => format!(
+                            "[{k}/{total}] {}: {what} ({:.1} s)",
+                            job.folder.display(),
+                            clock.elapsed().as_secs_f64()
+                        ),
+                        Err(e) => format!("[{k}/{total}] {}: failed: {e}", job.folder.display()),
+                    };
+                    bar.suspend(|| eprintln!("{line}"));
+                    bar.inc(1);
+                    result.map(|_| ())
+                })
+                .collect::<Vec<_>>()
+        }));
+    }
     bar.finish_and_clear();
     Ok(results)
+}
+
+/// Runs one job into its folder; says what it gave.
+fn run_job(job: &Job, out: &Path) -> Result<String, JobError> {
+    let dir = out.join(&job.folder);
+    let options = JobOptions {
+        overwrite: true,
+        verbose: false,
+    };
+    match &job.work {
+        Work::Season(spec) => run_season_job(spec, &dir, &options).map(|o| {
+            format!(
+                "cumulative reward {:+.4} {}, {} failed solves",
+                o.metrics.cumulative_reward, o.unit, o.metrics.solve.failed_solves
+            )
+        }),
+        Work::Train(spec) => run_train_job(spec, &dir, &options, true)
+            .map(|()| format!("trained ({} episodes)", spec.episodes)),
+        Work::Value(spec) => run_value_job(spec, &dir, &options)
+            .map(|()| format!("value network fitted ({} roll-outs)", spec.trajectories)),
+    }
+}
+
+/// Waits until every job `job` reads is complete: at once where the whole study runs here
+/// (they ran in an earlier phase), polling where another shard may still be running them.
+/// A job it reads that failed fails it.
+fn wait_for_needs(job: &Job, out: &Path, sharded: bool) -> Result<(), JobError> {
+    let mut announced = false;
+    for need in &job.needs {
+        loop {
+            match folder::recorded(&out.join(need)) {
+                Some((status, _)) if status == "complete" => break,
+                Some((status, _)) if status == "failed" => {
+                    return Err(JobError::Spec(format!(
+                        "it reads {}, which failed (--retry-failed runs it again)",
+                        need.display()
+                    )))
+                }
+                _ if !sharded => {
+                    return Err(JobError::Spec(format!(
+                        "it reads {}, which did not run",
+                        need.display()
+                    )))
+                }
+                _ => {
+                    if !announced {
+                        eprintln!(
+                            "{} waits for {} (another shard's)",
+                            job.folder.display(),
+                            need.display()
+                        );
+                        announced = true;
+                    }
+                    std::thread::sleep(std::time::Duration::from_secs(5));
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 /// `study.json`: the study file and every job of its plan with its folder and spec.
@@ -241,7 +304,9 @@ fn write_plan(out: &Path, path: &Path, jobs: &[Job]) -> Result<(), StudyError> {
             "controller": j.controller,
             "horizon": j.horizon,
             "scenario": j.scenario,
-            "spec": j.spec,
+            "kind": j.work.kind(),
+            "needs": j.needs,
+            "spec": j.work.spec_json(),
         })).collect::<Vec<_>>(),
     });
     let target = out.join("study.json");
