@@ -49,7 +49,7 @@ struct StudyFile {
     #[serde(default)]
     scenarios: Scenarios,
     #[serde(default)]
-    controllers: Vec<toml::Table>,
+    controllers: Vec<toml::Spanned<toml::Table>>,
     #[serde(default)]
     agents: Option<Agents>,
 }
@@ -192,13 +192,14 @@ pub fn plan(path: &Path, out: &Path) -> Result<Vec<Job>, StudyError> {
         message: e.to_string(),
     })?;
     let base = path.parent().unwrap_or(Path::new("."));
-    plan_file(file, base, out).map_err(|message| StudyError::File {
+    plan_file(file, base, out, &text).map_err(|message| StudyError::File {
         path: path.to_path_buf(),
         message,
     })
 }
 
-fn plan_file(file: StudyFile, base: &Path, out: &Path) -> Result<Vec<Job>, String> {
+/// Plans `file` (whose text is `text`, for the lines of its errors).
+fn plan_file(file: StudyFile, base: &Path, out: &Path, text: &str) -> Result<Vec<Job>, String> {
     if file.models.is_empty() {
         return Err("`models` names no model file".into());
     }
@@ -236,7 +237,10 @@ fn plan_file(file: StudyFile, base: &Path, out: &Path) -> Result<Vec<Job>, Strin
         .controllers
         .iter()
         .enumerate()
-        .map(|(i, table)| controller_entry(i, table))
+        .map(|(i, table)| {
+            controller_entry(i, table.get_ref(), table.span())
+                .map_err(|m| at_line(text, table.span(), m))
+        })
         .collect::<Result<Vec<_>, _>>()?;
     let mut names: Vec<&str> = controllers.iter().map(|c| c.name.as_str()).collect();
     names.sort_unstable();
@@ -285,16 +289,18 @@ fn plan_file(file: StudyFile, base: &Path, out: &Path) -> Result<Vec<Job>, Strin
             let horizons: Vec<String> = match (&c.horizon, c.needs_horizon) {
                 (Some(h), _) => vec![h.clone()],
                 (None, true) if file.horizons.is_empty() => {
-                    return Err(format!(
+                    return Err(at_line(text, c.span.clone(), format!(
                         "controller `{}` ({}) needs a horizon: give it `horizon = \"3h\"` or the study `horizons = [...]`",
                         c.name, c.kind
-                    ))
+                    )))
                 }
                 (None, true) => file.horizons.clone(),
                 (None, false) => vec![String::new()],
             };
             for horizon in &horizons {
-                let spec = c.spec(horizon, base)?;
+                let spec = c
+                    .spec(horizon, base)
+                    .map_err(|m| at_line(text, c.span.clone(), m))?;
                 for (scenario, plant) in &scenarios {
                     let mut folder = Path::new(&stem).join(slug(&c.name));
                     if !horizon.is_empty() {
@@ -487,9 +493,39 @@ struct ControllerEntry {
     horizon: Option<String>,
     needs_horizon: bool,
     fields: toml::Table,
+    /// Where its table is in the study file.
+    span: std::ops::Range<usize>,
 }
 
-fn controller_entry(index: usize, table: &toml::Table) -> Result<ControllerEntry, String> {
+/// `message` about the table at `span` of `text`, led by the line of the key it names
+/// (`unknown field \`solvr\``), else of the table.
+fn at_line(text: &str, span: std::ops::Range<usize>, message: String) -> String {
+    // The table's keys: from its header to the next header (the span may be the header's).
+    let table = text.get(span.start..).unwrap_or_default();
+    let named: Vec<&str> = message.split('`').skip(1).step_by(2).collect();
+    let key_offset = table
+        .lines()
+        .scan(0, |offset, line| {
+            let start = *offset;
+            *offset += line.len() + 1;
+            Some((start, line))
+        })
+        .take_while(|(start, line)| *start == 0 || !line.trim_start().starts_with('['))
+        .find(|(_, line)| {
+            let key = line.split('=').next().unwrap_or_default().trim();
+            line.contains('=') && named.contains(&key)
+        })
+        .map_or(0, |(start, _)| start);
+    let at = (span.start + key_offset).min(text.len());
+    let line = text[..at].matches('\n').count() + 1;
+    format!("line {line}: {message}")
+}
+
+fn controller_entry(
+    index: usize,
+    table: &toml::Table,
+    span: std::ops::Range<usize>,
+) -> Result<ControllerEntry, String> {
     let mut fields = table.clone();
     let kind = match fields.get("kind") {
         Some(toml::Value::String(k)) => k.clone(),
@@ -530,6 +566,7 @@ fn controller_entry(index: usize, table: &toml::Table) -> Result<ControllerEntry
         kind,
         horizon,
         fields,
+        span,
     })
 }
 
@@ -586,7 +623,7 @@ mod tests {
 
     fn plan_text(text: &str) -> Result<Vec<Job>, String> {
         let file: StudyFile = toml::from_str(text).map_err(|e| e.to_string())?;
-        plan_file(file, Path::new("studies"), Path::new("/out"))
+        plan_file(file, Path::new("studies"), Path::new("/out"), text)
     }
 
     #[test]
@@ -719,10 +756,13 @@ mod tests {
         let cases = [
             ("models = []\n[[controllers]]\nkind = \"expert\"", "names no model"),
             ("models = [\"m.ghm\"]", "runs nothing"),
-            ("models = [\"m.ghm\"]\n[[controllers]]\nkind = \"mpc\"", "needs a horizon"),
+            (
+                "models = [\"m.ghm\"]\n[[controllers]]\nkind = \"mpc\"",
+                "line 2: controller `mpc` (mpc) needs a horizon",
+            ),
             (
                 "models = [\"m.ghm\"]\nhorizons = [\"1h\"]\n[[controllers]]\nkind = \"mpc\"\nsolvr = \"sqp\"",
-                "solvr",
+                "line 5: controller `mpc`: unknown field `solvr`",
             ),
             ("models = [\"m.ghm\"]\n[[controllers]]\nname = \"x\"", "no `kind`"),
             (
