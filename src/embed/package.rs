@@ -137,25 +137,47 @@ fn check_folder(out: &Path, overwrite: bool) -> Result<(), EmbedError> {
     Ok(())
 }
 
-/// `explicit`, else `libghm.a` beside the running executable.
+/// `explicit`, else `libghm.a` beside the running executable, else the newest
+/// `deps/libghm-*.a` there (where cargo leaves it when it builds the library for the tests
+/// only, without copying it up).
 fn find_runtime(explicit: Option<&Path>) -> Result<PathBuf, EmbedError> {
-    let candidate = match explicit {
-        Some(p) => p.to_path_buf(),
-        None => std::env::current_exe()
-            .ok()
-            .and_then(|exe| exe.parent().map(|d| d.join(RUNTIME_LIBRARY)))
-            .unwrap_or_else(|| PathBuf::from(RUNTIME_LIBRARY)),
-    };
-    if candidate.is_file() {
-        Ok(candidate)
-    } else {
-        Err(EmbedError::Package(format!(
-            "ghm's runtime library is not at {}: it is built beside the ghm binary by \
-             `cargo build --release` (target/release/{RUNTIME_LIBRARY}); pass its path with \
-             --runtime FILE",
-            candidate.display()
-        )))
+    if let Some(path) = explicit {
+        return if path.is_file() {
+            Ok(path.to_path_buf())
+        } else {
+            Err(missing_runtime(path))
+        };
     }
+    let dir = std::env::current_exe()
+        .ok()
+        .and_then(|exe| exe.parent().map(Path::to_path_buf))
+        .unwrap_or_default();
+    let beside = dir.join(RUNTIME_LIBRARY);
+    if beside.is_file() {
+        return Ok(beside);
+    }
+    let newest_in_deps = std::fs::read_dir(dir.join("deps"))
+        .into_iter()
+        .flatten()
+        .filter_map(Result::ok)
+        .filter(|e| {
+            let name = e.file_name().to_string_lossy().into_owned();
+            name.starts_with("libghm-") && name.ends_with(".a")
+        })
+        .filter_map(|e| Some((e.metadata().ok()?.modified().ok()?, e.path())))
+        .max();
+    newest_in_deps
+        .map(|(_, path)| path)
+        .ok_or_else(|| missing_runtime(&beside))
+}
+
+fn missing_runtime(path: &Path) -> EmbedError {
+    EmbedError::Package(format!(
+        "ghm's runtime library is not at {}: it is built beside the ghm binary by \
+         `cargo build --release` (target/release/{RUNTIME_LIBRARY}); pass its path with \
+         --runtime FILE",
+        path.display()
+    ))
 }
 
 /// The C source that carries `bytes` and builds the controller from them.
