@@ -347,7 +347,7 @@ fn save(
     let name = meta["model_name"].as_str().unwrap_or("model");
     trainer
         .policy(name)
-        .and_then(|p| p.save(&dir.join("policy.json")))
+        .and_then(|p| Ok(p.save(&dir.join("policy.json"))?))
         .map_err(rl)?;
     let curve = trainer.curve();
     let wall: f64 = curve.iter().map(|r| r.wall_s).sum();

@@ -91,6 +91,10 @@ pub enum ControlError {
         /// What went wrong, in words.
         reason: String,
     },
+    /// A policy's observation statistics, action map or network failed (see
+    /// [`AgentError`](crate::agent::AgentError)); its message unchanged.
+    #[error(transparent)]
+    Agent(#[from] crate::agent::AgentError),
     /// Any other failure, described in words: a forecast too short for the controller, a
     /// model the expert or a policy cannot serve, a problem the OCP rejects.
     #[error("{0}")]
