@@ -116,8 +116,8 @@ fn season_numbers(log: &StepLog) -> impl Iterator<Item = f64> + '_ {
 /// The text columns ([`TEXT_COLUMNS`]) of one step.
 pub fn text_fields(log: &StepLog) -> [String; 3] {
     [
-        log.record.status.clone(),
-        log.record.fallback.clone().unwrap_or_default(),
+        log.record.status_name().to_string(),
+        log.record.fallback_name().unwrap_or_default().to_string(),
         log.record.terminal_region.clone().unwrap_or_default(),
     ]
 }
