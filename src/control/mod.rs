@@ -162,8 +162,22 @@ pub enum ControlError {
     /// [`AgentError`](crate::agent::AgentError)); its message unchanged.
     #[error(transparent)]
     Agent(#[from] crate::agent::AgentError),
-    /// Any other failure, described in words: a forecast too short for the controller, a
-    /// model the expert or a policy cannot serve, a problem the OCP rejects.
+    /// The OCP rejected the step's data (see [`OcpError`](crate::nlp::OcpError)); its
+    /// message unchanged.
+    #[error(transparent)]
+    Ocp(#[from] crate::nlp::OcpError),
+    /// A remote controller's request could not be encoded, or its answer read, as JSON.
+    #[error("{what}: {source}")]
+    Json {
+        /// What was being encoded or read, and from where.
+        what: String,
+        /// The JSON error.
+        #[source]
+        source: serde_json::Error,
+    },
+    /// A failure the controller found itself, described in words (there is no underlying
+    /// error to keep): a forecast too short for the controller, a model the expert or a
+    /// policy cannot serve, a service that cannot be reached or refuses the request.
     #[error("{0}")]
     Other(String),
 }

@@ -328,14 +328,12 @@ impl Controller for Mpc {
     fn decide(&mut self, observation: &Observation) -> Result<Decision, ControlError> {
         let clock = Instant::now();
         self.pad_forecast(observation.forecast)?;
-        self.ocp
-            .set_problem(
-                observation.step,
-                observation.state,
-                observation.previous_input,
-                &self.forecast,
-            )
-            .map_err(|e| ControlError::Other(e.to_string()))?;
+        self.ocp.set_problem(
+            observation.step,
+            observation.state,
+            observation.previous_input,
+            &self.forecast,
+        )?;
         self.last_age += 1;
         let mut effort = Effort::default();
         let mut fallback = None;
