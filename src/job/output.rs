@@ -16,11 +16,11 @@ use sha2::{Digest, Sha256};
 use std::fs::File;
 use std::path::{Path, PathBuf};
 
-/// An I/O error of `path` as a [`JobError::Output`].
+/// An I/O error of `path` as a [`JobError::Io`].
 pub fn io_err(path: &Path) -> impl Fn(std::io::Error) -> JobError + '_ {
-    move |e| JobError::Output {
+    move |source| JobError::Io {
         path: path.to_path_buf(),
-        message: e.to_string(),
+        source,
     }
 }
 
