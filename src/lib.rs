@@ -28,6 +28,7 @@
 //! assert_eq!(result.metrics.steps, 12);
 //! assert_eq!(result.metrics.solve.failed_solves, 0);
 //! ```
+pub mod agent;
 pub mod cli;
 pub mod control;
 pub mod embed;

@@ -1,7 +1,7 @@
 //! The MPC's fallback order, exercised with a solver that fails on purpose, and its
 //! forecast padding (built-in model, constant weather: no ../shared needed).
 
-use ghm::control::{ControlError, Controller, Guidance, Mpc, Observation};
+use ghm::control::{ControlError, Controller, Fallback, Guidance, Mpc, Observation};
 use ghm::model::Plant;
 use ghm::nlp::{Nlp, Ocp};
 use ghm::solve::{Solution, SolveStatus, Solver, Sqp, Start};
@@ -61,9 +61,9 @@ fn run(plant: &Plant, mpc: &mut Mpc, steps: usize) -> Vec<(Option<String>, Vec<f
         };
         let d = mpc.decide(&obs).unwrap();
         out.push((
-            d.record.fallback.clone(),
+            d.record.fallback_name().map(String::from),
             d.input.clone(),
-            d.record.status.clone(),
+            d.record.status_name().to_string(),
         ));
         x = plant.step(&x, &d.input, &forecast[..4], &p).next_state;
         u_prev = d.input;
@@ -114,8 +114,12 @@ fn failed_warm_and_cold_solves_apply_the_shifted_plan() {
             forecast: &forecast,
         })
         .unwrap();
-    assert_eq!(d.record.fallback.as_deref(), Some("shifted_plan"));
-    assert_eq!(d.record.status, "infeasible");
+    assert_eq!(d.record.fallback, Some(Fallback::ShiftedPlan));
+    assert_eq!(d.record.status, Some(SolveStatus::Infeasible));
+    assert_eq!(
+        (d.record.fallback_name(), d.record.status_name()),
+        (Some("shifted_plan"), "infeasible")
+    );
     for (a, b) in d.input.iter().zip(&plan) {
         assert!((a - b).abs() < 1e-12, "{:?} vs plan {:?}", d.input, plan);
     }
@@ -206,8 +210,8 @@ fn failure_without_a_plan_applies_the_guides_input_within_the_limits() {
             forecasts: Arc::default(),
         }));
         let d = first_decision(&plant, &mut mpc, &forecast).unwrap();
-        assert_eq!(d.record.fallback.as_deref(), Some(path));
-        assert_eq!(d.record.status, "numerical_error");
+        assert_eq!(d.record.fallback_name(), Some(path));
+        assert_eq!(d.record.status, Some(SolveStatus::NumericalError));
         assert_eq!(d.input, applied, "{path}");
     }
 }

@@ -5,7 +5,7 @@
 use ghm::control::InputTable;
 use ghm::lang::model::Redraw;
 use ghm::model::Plant;
-use ghm::rl::{Env, Normalizer, RlError};
+use ghm::rl::{AgentError, Env, Normalizer, RlError};
 use ghm::sim::season::{run_season, SeasonConfig, StepLog, UncertaintyDraw};
 use ghm::sim::weather::{builtin_season, Weather};
 use rand::{Rng, SeedableRng};
@@ -223,7 +223,7 @@ sample 60 [s] integrator euler substeps 1
     let w = Weather::constant(vec![], &[], 10, 60.0);
     assert!(matches!(
         Env::new(p, w, 10, None),
-        Err(RlError::UnboundedInput { ref input, .. }) if input == "valve"
+        Err(RlError::Agent(AgentError::UnboundedInput { ref input, .. })) if input == "valve"
     ));
 }
 

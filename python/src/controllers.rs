@@ -187,8 +187,8 @@ impl RawController {
         record.set_item("solve_ms", r.solve_time_s * 1e3)?;
         record.set_item("iterations", r.iterations)?;
         record.set_item("inertia_corrections", r.inertia_corrections)?;
-        record.set_item("status", &r.status)?;
-        record.set_item("fallback", r.fallback.clone())?;
+        record.set_item("status", r.status_name())?;
+        record.set_item("fallback", r.fallback_name())?;
         record.set_item("terminal_region", r.terminal_region.clone())?;
         Ok((decision.input.into_pyarray(py), record))
     }

@@ -15,6 +15,9 @@ pub use policy::Policy;
 pub use rlmpc::{terminal_region, RlGuidance, RlMpcOptions, TerminalCostForm};
 pub use value::{taylor_terminal_cost, ValueFile, ValueTerminalCost};
 
+use crate::solve::SolveStatus;
+use serde::{Deserialize, Serialize};
+use std::fmt;
 use thiserror::Error;
 
 /// What a controller sees at step `k`.
@@ -42,14 +45,78 @@ pub struct StepRecord {
     /// Iterations whose Hessian the solver had to correct (inertia corrections, curvature
     /// shifts), summed over every attempt at this step.
     pub inertia_corrections: usize,
-    /// Solver status (empty for controllers without a solver).
-    pub status: String,
+    /// How the step's last solve ended; `None` for controllers without a solver (written
+    /// as an empty field).
+    pub status: Option<SolveStatus>,
     /// Which fallback produced the input, if the first choice failed.
-    pub fallback: Option<String>,
+    pub fallback: Option<Fallback>,
     /// RL-guided MPC: the terminal region's state at the solution (`binding` when a
     /// bound of the region is active, `inactive` when imposed but not active); `None`
     /// without a region.
     pub terminal_region: Option<String>,
+}
+
+impl StepRecord {
+    /// The status as the logs spell it: the solver's snake-case name, or `""` without a
+    /// solver.
+    pub fn status_name(&self) -> &'static str {
+        self.status.map_or("", SolveStatus::as_str)
+    }
+
+    /// The fallback as the logs spell it (`cold_start`, ...), if one was taken.
+    pub fn fallback_name(&self) -> Option<&'static str> {
+        self.fallback.map(Fallback::as_str)
+    }
+
+    /// Whether the step's solve failed: a solver status that is neither optimal nor
+    /// acceptable. A step without a solver did not fail.
+    ///
+    /// ```
+    /// use ghm::control::StepRecord;
+    /// use ghm::solve::SolveStatus;
+    ///
+    /// assert!(!StepRecord::default().solve_failed());
+    /// let failed = StepRecord { status: Some(SolveStatus::Infeasible), ..StepRecord::default() };
+    /// assert!(failed.solve_failed());
+    /// assert_eq!(failed.status_name(), "infeasible");
+    /// ```
+    pub fn solve_failed(&self) -> bool {
+        self.status.is_some_and(|s| !s.is_success())
+    }
+}
+
+/// Which fallback produced a step's input when the controller's first choice failed (in
+/// the order MPC tries them after its first solve).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Fallback {
+    /// The warm-started solve failed and a cold start succeeded.
+    ColdStart,
+    /// No solve succeeded: the previous plan, shifted by the steps since it was made.
+    ShiftedPlan,
+    /// No solve succeeded and no plan was left: the guide's own input.
+    GuideInput,
+    /// Nothing else was left: the previous input, held.
+    HoldInput,
+}
+
+impl Fallback {
+    /// The snake-case name used in logs and JSON (`cold_start`, `shifted_plan`,
+    /// `guide_input`, `hold_input`).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Fallback::ColdStart => "cold_start",
+            Fallback::ShiftedPlan => "shifted_plan",
+            Fallback::GuideInput => "guide_input",
+            Fallback::HoldInput => "hold_input",
+        }
+    }
+}
+
+impl fmt::Display for Fallback {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
 }
 
 /// A controller's answer.
@@ -91,8 +158,26 @@ pub enum ControlError {
         /// What went wrong, in words.
         reason: String,
     },
-    /// Any other failure, described in words: a forecast too short for the controller, a
-    /// model the expert or a policy cannot serve, a problem the OCP rejects.
+    /// A policy's observation statistics, action map or network failed (see
+    /// [`AgentError`](crate::agent::AgentError)); its message unchanged.
+    #[error(transparent)]
+    Agent(#[from] crate::agent::AgentError),
+    /// The OCP rejected the step's data (see [`OcpError`](crate::nlp::OcpError)); its
+    /// message unchanged.
+    #[error(transparent)]
+    Ocp(#[from] crate::nlp::OcpError),
+    /// A remote controller's request could not be encoded, or its answer read, as JSON.
+    #[error("{what}: {source}")]
+    Json {
+        /// What was being encoded or read, and from where.
+        what: String,
+        /// The JSON error.
+        #[source]
+        source: serde_json::Error,
+    },
+    /// A failure the controller found itself, described in words (there is no underlying
+    /// error to keep): a forecast too short for the controller, a model the expert or a
+    /// policy cannot serve, a service that cannot be reached or refuses the request.
     #[error("{0}")]
     Other(String),
 }

@@ -25,7 +25,7 @@
 //! and writes the starting point; its own input is one more fallback, before the held
 //! input.
 
-use super::{ControlError, Controller, Decision, Observation, Plan, StepRecord};
+use super::{ControlError, Controller, Decision, Fallback, Observation, Plan, StepRecord};
 use crate::model::Plant;
 use crate::nlp::{Bands, Nlp, Ocp, OcpError};
 use crate::solve::{Solution, Solver, Start, WarmStart};
@@ -254,7 +254,7 @@ impl Mpc {
     }
 
     /// The fallback inputs when no solve succeeded.
-    fn fallback_input(&mut self, observation: &Observation) -> (Vec<f64>, &'static str) {
+    fn fallback_input(&mut self, observation: &Observation) -> (Vec<f64>, Fallback) {
         let previous = observation.previous_input;
         let planned = self.last.as_ref().and_then(|s| {
             let j = self.last_age;
@@ -266,10 +266,10 @@ impl Mpc {
                 .and_then(|g| g.guide_input(observation))
         };
         let (mut u, path) = match planned {
-            Some(u) => (u, "shifted_plan"),
+            Some(u) => (u, Fallback::ShiftedPlan),
             None => match guided() {
-                Some(u) => (u, "guide_input"),
-                None => (previous.to_vec(), "hold_input"),
+                Some(u) => (u, Fallback::GuideInput),
+                None => (previous.to_vec(), Fallback::HoldInput),
             },
         };
         self.ocp.plant().apply_limits(previous, &mut u);
@@ -328,14 +328,12 @@ impl Controller for Mpc {
     fn decide(&mut self, observation: &Observation) -> Result<Decision, ControlError> {
         let clock = Instant::now();
         self.pad_forecast(observation.forecast)?;
-        self.ocp
-            .set_problem(
-                observation.step,
-                observation.state,
-                observation.previous_input,
-                &self.forecast,
-            )
-            .map_err(|e| ControlError::Other(e.to_string()))?;
+        self.ocp.set_problem(
+            observation.step,
+            observation.state,
+            observation.previous_input,
+            &self.forecast,
+        )?;
         self.last_age += 1;
         let mut effort = Effort::default();
         let mut fallback = None;
@@ -357,7 +355,7 @@ impl Controller for Mpc {
             effort.iterations += cold_effort.iterations;
             effort.corrections += cold_effort.corrections;
             if warm_failed {
-                fallback = Some("cold_start".to_string());
+                fallback = Some(Fallback::ColdStart);
             }
             solution = Some(cold);
         }
@@ -377,7 +375,7 @@ impl Controller for Mpc {
             u
         } else {
             let (u, path) = self.fallback_input(observation);
-            fallback = Some(path.to_string());
+            fallback = Some(path);
             u
         };
         Ok(Decision {
@@ -386,7 +384,7 @@ impl Controller for Mpc {
                 solve_time_s: clock.elapsed().as_secs_f64(),
                 iterations: effort.iterations,
                 inertia_corrections: effort.corrections,
-                status: status.as_str().to_string(),
+                status: Some(status),
                 fallback,
                 terminal_region,
             },

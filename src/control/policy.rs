@@ -3,10 +3,10 @@
 //! the policy's frozen statistics, and maps the action to an input with the environment's
 //! own map, so rate limits and bounds hold by construction.
 
+use crate::agent::observation::{action_scale, input_from_action, observation_after_outputs};
+use crate::agent::PolicyFile;
 use crate::control::{ControlError, Controller, Decision, Observation, StepRecord};
 use crate::model::Plant;
-use crate::rl::env::{action_scale, input_from_action, observation_after_outputs};
-use crate::rl::PolicyFile;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -21,7 +21,7 @@ use std::time::Instant;
 /// # fn main() -> Result<(), Box<dyn std::error::Error>> {
 /// use ghm::control::Policy;
 /// use ghm::model::Plant;
-/// use ghm::rl::PolicyFile;
+/// use ghm::agent::PolicyFile;
 /// use ghm::sim::season::{run_season, SeasonConfig, StepLog};
 /// use ghm::sim::weather::builtin_season;
 /// use std::sync::Arc;
@@ -83,7 +83,7 @@ impl Policy {
                 nu
             )));
         }
-        let scale = action_scale(plant).map_err(|e| ControlError::Other(e.to_string()))?;
+        let scale = action_scale(plant)?;
         Ok(Policy {
             policy,
             scale,
@@ -121,10 +121,7 @@ impl Controller for Policy {
             o.step,
             &o.forecast[..self.nd],
         );
-        let action = self
-            .policy
-            .action(&self.observation[..])
-            .map_err(|e| ControlError::Other(e.to_string()))?;
+        let action = self.policy.action(&self.observation[..])?;
         let mut input = vec![0.0; nu];
         input_from_action(
             o.previous_input,

@@ -329,7 +329,7 @@ pub unsafe extern "C" fn ghm_controller_decide(
                 iterations: r.iterations,
                 inertia_corrections: r.inertia_corrections,
                 solve_time_s: r.solve_time_s,
-                solved: crate::sim::metrics::status_is_success(&r.status),
+                solved: !r.solve_failed(),
                 fallback: r.fallback.is_some(),
             };
         }

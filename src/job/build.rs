@@ -2,6 +2,7 @@
 //! in steps, the NLP back-end, MPC, the guide (a policy shipped or trained, or the expert),
 //! the value network, fixed inputs.
 
+use crate::agent::PolicyFile;
 use crate::control::{ConstantInput, Controller, Expert, InputTable, Mpc, Policy, ValueFile};
 use crate::job::spec::{
     ControllerSpec, CostForm, GuideChoice, RlmpcSpec, RunSpec, SolverChoice, WarmStartChoice,
@@ -10,7 +11,6 @@ use crate::job::weather::WeatherSpec;
 use crate::job::JobError;
 use crate::model::Plant;
 use crate::nlp::Bands;
-use crate::rl::PolicyFile;
 use crate::solve::{Ipm, Solver, Sqp};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -150,7 +150,7 @@ pub fn resolve_policy(
             path
         }
     };
-    let fail = |e: crate::rl::RlError| JobError::Spec(e.to_string());
+    let fail = |e: crate::agent::AgentError| JobError::Spec(e.to_string());
     let policy = PolicyFile::load(&path).map_err(fail)?;
     policy.check_fits(&plant.model, &path).map_err(fail)?;
     if policy.model != plant.model.name {

@@ -54,7 +54,17 @@ pub enum JobError {
     /// inputs) is missing or does not fit the model; the message says which.
     #[error("{0}")]
     Spec(String),
-    /// A run folder or one of its files could not be created or written.
+    /// A run folder or one of its files could not be created or written: the I/O error
+    /// is kept as the source.
+    #[error("cannot write {path}: {source}")]
+    Io {
+        /// The file or folder that could not be written.
+        path: PathBuf,
+        /// The I/O error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A result file could not be made (encoded, drawn) or written, as a message.
     #[error("cannot write {path}: {message}")]
     Output {
         /// The file or folder that could not be written.

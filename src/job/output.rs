@@ -9,18 +9,18 @@ use crate::job::JobError;
 use crate::model::Plant;
 use crate::report::atomic::{self, AtomicFile};
 use crate::report::plot::{draw_png, Figure, Line, Panel};
+use crate::report::table::csv_writer;
 use crate::sim::season::{StepLog, StepSink};
 use indicatif::{ProgressBar, ProgressStyle};
 use sha2::{Digest, Sha256};
 use std::fs::File;
-use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-/// An I/O error of `path` as a [`JobError::Output`].
+/// An I/O error of `path` as a [`JobError::Io`].
 pub fn io_err(path: &Path) -> impl Fn(std::io::Error) -> JobError + '_ {
-    move |e| JobError::Output {
+    move |source| JobError::Io {
         path: path.to_path_buf(),
-        message: e.to_string(),
+        source,
     }
 }
 
@@ -116,8 +116,8 @@ fn season_numbers(log: &StepLog) -> impl Iterator<Item = f64> + '_ {
 /// The text columns ([`TEXT_COLUMNS`]) of one step.
 pub fn text_fields(log: &StepLog) -> [String; 3] {
     [
-        log.record.status.clone(),
-        log.record.fallback.clone().unwrap_or_default(),
+        log.record.status_name().to_string(),
+        log.record.fallback_name().unwrap_or_default().to_string(),
         log.record.terminal_region.clone().unwrap_or_default(),
     ]
 }
@@ -129,7 +129,7 @@ pub const INCOMPLETE_TRAJECTORY: &str = "trajectory.incomplete.csv";
 pub struct TrajectoryWriter {
     path: PathBuf,
     file: Option<AtomicFile>,
-    out: BufWriter<File>,
+    out: csv::Writer<File>,
     steps_per_day: usize,
     period_h: f64,
     pub logs: Vec<StepLog>,
@@ -147,10 +147,11 @@ impl TrajectoryWriter {
     ) -> Result<TrajectoryWriter, JobError> {
         let path = dir.join("trajectory.csv");
         let file = AtomicFile::new(&path);
-        let mut out = BufWriter::new(File::create(file.path()).map_err(io_err(&path))?);
+        let mut out = csv_writer(File::create(file.path()).map_err(io_err(&path))?);
         let m = &plant.model;
         let header = trajectory_header(plant);
-        writeln!(out, "{}", header.join(",")).map_err(io_err(&path))?;
+        out.write_record(&header)
+            .map_err(|e| io_err(&path)(e.into()))?;
         let steps_per_day = (86400.0 / m.sample_period).round().max(1.0) as usize;
         let bar = ProgressBar::new(steps as u64);
         if !progress {
@@ -202,7 +203,7 @@ impl StepSink for TrajectoryWriter {
         row.push(log.record.iterations.to_string());
         row.push(log.record.inertia_corrections.to_string());
         row.extend(text_fields(log));
-        writeln!(self.out, "{}", row.join(",")).map_err(|e| e.to_string())?;
+        self.out.write_record(&row).map_err(|e| e.to_string())?;
         if (log.step + 1) % self.steps_per_day == 0 {
             self.out.flush().map_err(|e| e.to_string())?;
         }
@@ -217,7 +218,6 @@ impl StepSink for TrajectoryWriter {
     }
 }
 
-/// Writes `summary.json`.
 /// A progress bar of `len` units with `template`, hidden when stderr is not a terminal
 /// (the commands then print a line per unit of work themselves).
 pub fn progress_bar(len: u64, template: &str) -> ProgressBar {
@@ -231,6 +231,7 @@ pub fn progress_bar(len: u64, template: &str) -> ProgressBar {
     bar
 }
 
+/// Writes `summary.json`.
 pub fn write_summary(dir: &Path, summary: &serde_json::Value) -> Result<(), JobError> {
     let path = dir.join("summary.json");
     let text = serde_json::to_string_pretty(summary).map_err(|e| JobError::Output {

@@ -566,8 +566,8 @@ fn no_solve_succeeded(m: &Metrics, logs: &[StepLog], out: &Path) -> Option<Strin
          fallback's (`{}`), not the controller's, so these figures do not measure it. The \
          status column of {}/trajectory.csv says how each solve ended",
         m.steps,
-        first.map_or("", |r| r.status.as_str()),
-        first.and_then(|r| r.fallback.as_deref()).unwrap_or("none"),
+        first.map_or("", |r| r.status_name()),
+        first.and_then(|r| r.fallback_name()).unwrap_or("none"),
         out.display()
     ))
 }

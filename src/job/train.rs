@@ -14,6 +14,7 @@ use crate::job::output::{model_hash, progress_bar, write_atomically, write_summa
 use crate::job::{load_model, JobError, JobOptions, WeatherSpec};
 use crate::model::Plant;
 use crate::report::plot::{draw_xy, Line};
+use crate::report::table::csv_text;
 use crate::rl::sac::{checkpoint, EpisodeRecord, SacConfig, StepProgress, Trainer};
 use crate::rl::Env;
 use crate::sim::season::UncertaintyDraw;
@@ -311,7 +312,7 @@ fn save(
     let name = meta["model_name"].as_str().unwrap_or("model");
     trainer
         .policy(name)
-        .and_then(|p| p.save(&dir.join("policy.json")))
+        .and_then(|p| Ok(p.save(&dir.join("policy.json"))?))
         .map_err(rl)?;
     let curve = trainer.curve();
     let wall: f64 = curve.iter().map(|r| r.wall_s).sum();
@@ -359,28 +360,38 @@ fn save(
 
 /// `learning_curve.csv` and `learning_curve.png`.
 fn write_curve(dir: &Path, curve: &[EpisodeRecord]) -> Result<(), JobError> {
-    let mut csv = String::from(
-        "episode,total_steps,steps,reward,eval_reward,warmup,diverged,critic_loss,actor_loss,alpha,entropy,wall_s\n",
-    );
-    for r in curve {
-        csv += &format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{:.3}\n",
-            r.episode,
-            r.total_steps,
-            r.steps,
-            r.reward,
+    let header = [
+        "episode",
+        "total_steps",
+        "steps",
+        "reward",
+        "eval_reward",
+        "warmup",
+        "diverged",
+        "critic_loss",
+        "actor_loss",
+        "alpha",
+        "entropy",
+        "wall_s",
+    ];
+    let records = curve.iter().map(|r| {
+        [
+            r.episode.to_string(),
+            r.total_steps.to_string(),
+            r.steps.to_string(),
+            r.reward.to_string(),
             r.eval_reward.map_or(String::new(), |e| e.to_string()),
-            r.warmup,
-            r.diverged,
-            r.critic_loss,
-            r.actor_loss,
-            r.alpha,
-            r.entropy,
-            r.wall_s
-        );
-    }
+            r.warmup.to_string(),
+            r.diverged.to_string(),
+            r.critic_loss.to_string(),
+            r.actor_loss.to_string(),
+            r.alpha.to_string(),
+            r.entropy.to_string(),
+            format!("{:.3}", r.wall_s),
+        ]
+    });
     write_atomically(&dir.join("learning_curve.csv"), |path| {
-        std::fs::write(path, &csv)
+        std::fs::write(path, csv_text(header, records)?)
     })?;
     let x: Vec<f64> = curve.iter().map(|r| r.episode as f64).collect();
     let training = Line {

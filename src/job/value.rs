@@ -11,6 +11,7 @@ use crate::job::output::{model_hash, progress_bar, write_atomically, write_summa
 use crate::job::{load_model, GuideChoice, JobError, JobOptions, RunFolder, WeatherSpec};
 use crate::model::Plant;
 use crate::report::plot::{draw_xy, Line};
+use crate::report::table::csv_text;
 use crate::rl::value_fit::{fit_value, EpochLoss, ValueFitConfig};
 use crate::sim::value_data::{nominal_run, sample_returns, ValueDataConfig};
 use serde::{Deserialize, Serialize};
@@ -287,12 +288,18 @@ fn fit_and_write(
 }
 
 fn write_curve(dir: &Path, curve: &[EpochLoss]) -> Result<(), JobError> {
-    let mut csv = String::from("epoch,train_mse,validation_mse\n");
-    for e in curve {
-        csv += &format!("{},{},{}\n", e.epoch, e.train, e.validation);
-    }
+    let records = curve.iter().map(|e| {
+        [
+            e.epoch.to_string(),
+            e.train.to_string(),
+            e.validation.to_string(),
+        ]
+    });
     write_atomically(&dir.join("value_curve.csv"), |path| {
-        std::fs::write(path, &csv)
+        std::fs::write(
+            path,
+            csv_text(["epoch", "train_mse", "validation_mse"], records)?,
+        )
     })?;
     let x: Vec<f64> = curve.iter().map(|e| e.epoch as f64).collect();
     let log10 = |v: f64| if v > 0.0 { v.log10() } else { f64::NAN };

@@ -1,4 +1,5 @@
-//! Reports: plots of seasons and learning curves, and the atomic writing of every result
-//! file ([`atomic`]), which any room that writes a file may use.
+//! Reports: plots of seasons and learning curves, the atomic writing of every result
+//! file ([`atomic`]) and CSV tables ([`table`]), which any room that writes a file may use.
 pub mod atomic;
 pub mod plot;
+pub mod table;

@@ -6,7 +6,7 @@
 //! `VecNormalize`. The buffer writes itself to a compact little-endian binary file so that
 //! a training checkpoint holds it exactly.
 
-use crate::rl::{Normalizer, RlError};
+use crate::rl::{AgentError, Normalizer, RlError};
 use rand::Rng;
 use std::io::{Read, Write};
 use std::path::Path;
@@ -103,10 +103,11 @@ impl ReplayBuffer {
         let (ow, aw) = (self.observation_width, self.action_width);
         for width in [observation.len(), next_observation.len()] {
             if width != ow {
-                return Err(RlError::ObservationWidth {
+                return Err(AgentError::ObservationWidth {
                     given: width,
                     expected: ow,
-                });
+                }
+                .into());
             }
         }
         if action.len() != aw {

@@ -13,7 +13,8 @@
 //! * **action** `a ∈ [−1, 1]^nu` (entries outside are clipped first) maps to the input
 //!   `u(k) = clip(u(k−1) + a ⊙ δu, u_min, u_max)`, where `δu` is each input's rate limit, or
 //!   its full range `upper − lower` when it has none ([`Env::action_scale`]). Bounds and rate
-//!   limits therefore hold by construction.
+//!   limits therefore hold by construction. The observation and the action map are
+//!   [`agent::observation`](crate::agent::observation)'s, re-exported here.
 //! * **reward** `r(k) = Σ stage terms − Σ soft-band penalties on y(x(k+1))`: the economic reward of
 //!   the transition minus the penalties on the outputs after it, the same number as the
 //!   season loop's [`StepLog::reward`](crate::sim::season::StepLog::reward).
@@ -26,6 +27,11 @@
 //! A step allocates nothing: every buffer (state, input, parameters, observation and the
 //! plant's tape workspace) is kept in the environment.
 
+pub use crate::agent::observation::{
+    action_scale, input_from_action, observation_after_outputs, observation_names,
+};
+#[cfg(doc)]
+use crate::agent::AgentError;
 use crate::lang::model::Redraw;
 use crate::model::finite::{first_non_finite, Quantity};
 use crate::model::{Plant, StepOutcome, StepWorkspace};
@@ -114,8 +120,9 @@ impl Env {
     /// disturbance order, at least `steps` rows). Call [`Env::reset`] before the first step.
     ///
     /// Errors: [`RlError::EmptyEpisode`], [`RlError::WeatherWidth`],
-    /// [`RlError::WeatherTooShort`], [`RlError::InputBounds`], [`RlError::UnboundedInput`]
-    /// (an input with neither a rate limit nor finite bounds has no action scale),
+    /// [`RlError::WeatherTooShort`], [`RlError::Agent`] ([`AgentError::InputBounds`],
+    /// [`AgentError::UnboundedInput`]: an input with neither a rate limit nor finite bounds
+    /// has no action scale),
     /// [`RlError::BadUncertainty`].
     pub fn new(
         plant: Arc<Plant>,
@@ -381,104 +388,4 @@ impl Env {
     pub fn uncertainty(&self) -> Option<UncertaintyDraw> {
         self.uncertainty
     }
-}
-
-/// Writes what follows the outputs in an observation `[y, u_prev, k, d]`: the previous
-/// input, the step index and the current weather (`rest` has room for exactly these). The
-/// environment and [`crate::control::Policy`] share it, so a policy sees in closed loop what
-/// it saw in training.
-pub fn observation_after_outputs(rest: &mut [f64], previous_input: &[f64], step: usize, d: &[f64]) {
-    let nu = previous_input.len();
-    rest[..nu].copy_from_slice(previous_input);
-    rest[nu] = step as f64;
-    rest[nu + 1..].copy_from_slice(d);
-}
-
-/// Each input's action scale `δu`: its rate limit, or its range `upper − lower` when it has
-/// none.
-///
-/// Errors: [`RlError::InputBounds`] (NaN or reversed bounds), [`RlError::UnboundedInput`]
-/// (no rate limit and an infinite range).
-///
-/// ```
-/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
-/// use ghm::model::ModelBuilder;
-/// use ghm::model::Plant;
-/// use ghm::rl::env::action_scale;
-///
-/// let mut b = ModelBuilder::new("two inputs");
-/// let x = b.state("x", 0.0);
-/// let fast = b.input("fast", 0.0, 10.0, None, 0.0); // no rate limit: its range
-/// let slow = b.input("slow", -1.0, 1.0, Some(0.1), 0.0); // its rate limit
-/// let rhs = b.add(fast, slow);
-/// b.der(x, rhs);
-/// b.sample(60.0, 1);
-/// let plant = Plant::new(b.build()?);
-/// assert_eq!(action_scale(&plant)?, [10.0, 0.1]);
-/// # Ok(())
-/// # }
-/// ```
-pub fn action_scale(plant: &Plant) -> Result<Vec<f64>, RlError> {
-    let mut scale = Vec::with_capacity(plant.layout.nu);
-    for decl in &plant.model.inputs {
-        // NaN bounds or lower > upper would make `f64::clamp` panic.
-        if decl.lower.is_nan() || decl.upper.is_nan() || decl.lower > decl.upper {
-            return Err(RlError::InputBounds {
-                input: decl.info.name.clone(),
-                lower: decl.lower,
-                upper: decl.upper,
-            });
-        }
-        let s = decl.rate.unwrap_or(decl.upper - decl.lower);
-        if !(s.is_finite() && s >= 0.0) {
-            return Err(RlError::UnboundedInput {
-                input: decl.info.name.clone(),
-                scale: s,
-            });
-        }
-        scale.push(s);
-    }
-    Ok(scale)
-}
-
-/// The action map `u = clip(u_prev + clip(a, −1, 1) ⊙ δu, lower, upper)`.
-///
-/// ```
-/// use ghm::rl::env::input_from_action;
-///
-/// // Heating in [0, 150] W m⁻², at most 15 more or less per step, now at 50.
-/// let (scale, lower, upper) = ([15.0], [0.0], [150.0]);
-/// let mut u = [0.0];
-/// input_from_action(&[50.0], &[0.5], &scale, &lower, &upper, &mut u);
-/// assert_eq!(u, [57.5]);
-/// input_from_action(&[50.0], &[-3.0], &scale, &lower, &upper, &mut u); // a clipped to −1
-/// assert_eq!(u, [35.0]);
-/// input_from_action(&[145.0], &[1.0], &scale, &lower, &upper, &mut u); // u clipped to 150
-/// assert_eq!(u, [150.0]);
-/// ```
-pub fn input_from_action(
-    previous: &[f64],
-    action: &[f64],
-    scale: &[f64],
-    lower: &[f64],
-    upper: &[f64],
-    input: &mut [f64],
-) {
-    for (i, (u, a)) in input.iter_mut().zip(action).enumerate() {
-        let v = previous[i] + a.clamp(-1.0, 1.0) * scale[i];
-        *u = v.clamp(lower[i], upper[i]);
-    }
-}
-
-/// Names of the observation entries of an environment over `model`: the outputs,
-/// `prev_<input>` per input, `step`, and the disturbances.
-pub fn observation_names(model: &crate::lang::Model) -> Vec<String> {
-    model
-        .outputs
-        .iter()
-        .map(|o| o.info.name.clone())
-        .chain(model.inputs.iter().map(|u| format!("prev_{}", u.info.name)))
-        .chain(std::iter::once("step".to_string()))
-        .chain(model.disturbances.iter().map(|d| d.info.name.clone()))
-        .collect()
 }

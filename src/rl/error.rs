@@ -1,6 +1,7 @@
 //! The error type of the reinforcement-learning module: wrong sizes, bad settings and
 //! calls out of order.
 
+use crate::agent::AgentError;
 use thiserror::Error;
 
 /// What can go wrong building or driving an [`Env`](crate::rl::Env) or a
@@ -26,28 +27,6 @@ pub enum RlError {
         given: usize,
         /// Disturbances of the model.
         expected: usize,
-    },
-    /// An input's bounds are NaN or reversed, so actions cannot be clipped to them.
-    #[error("input `{input}` has bounds [{lower}, {upper}] that do not form an interval")]
-    InputBounds {
-        /// The input's name.
-        input: String,
-        /// Its lower bound.
-        lower: f64,
-        /// Its upper bound.
-        upper: f64,
-    },
-    /// An input has neither a rate limit nor finite bounds, so an action of ±1 means no
-    /// finite change.
-    #[error(
-        "input `{input}` has no finite action scale: give it a rate limit or finite bounds \
-         (scale {scale})"
-    )]
-    UnboundedInput {
-        /// The input's name.
-        input: String,
-        /// The scale found: its rate limit, else `upper − lower`.
-        scale: f64,
     },
     /// The uncertainty δ given to an environment is negative, NaN or infinite, or too large
     /// for the model's spread.
@@ -97,34 +76,9 @@ pub enum RlError {
         /// The value: NaN, `inf` or `-inf`.
         value: f64,
     },
-    /// An observation of the wrong length for a normaliser, a buffer or a policy.
-    #[error("the observation has {given} entries; the normaliser expects {expected}")]
-    ObservationWidth {
-        /// Entries given.
-        given: usize,
-        /// Entries expected.
-        expected: usize,
-    },
-    /// A flat batch whose length is not a multiple of the row width (or whose width is 0).
-    #[error("a batch of {len} values does not fill rows of {width}")]
-    BatchShape {
-        /// Values in the batch.
-        len: usize,
-        /// Values per row.
-        width: usize,
-    },
     /// A sample was asked of a replay buffer holding no transition.
     #[error("the replay buffer is empty")]
     EmptyBuffer,
-    /// A policy file could not be written or read, or does not fit the model it is used
-    /// on; the reason names the field.
-    #[error("policy file {path}: {reason}")]
-    PolicyFile {
-        /// The file.
-        path: std::path::PathBuf,
-        /// What is wrong, naming the field.
-        reason: String,
-    },
     /// A checkpoint could not be written, read or used.
     #[error("checkpoint {path}: {why}")]
     Checkpoint {
@@ -141,17 +95,11 @@ pub enum RlError {
         /// Why it is refused.
         why: String,
     },
+    /// The observation statistics, the action map or a policy file (see
+    /// [`AgentError`]); its message unchanged.
+    #[error(transparent)]
+    Agent(#[from] AgentError),
     /// The tensor library (burn) failed; holds its message.
     #[error("the tensor back-end failed: {0}")]
     Backend(String),
-    /// A normaliser setting is out of range.
-    #[error("normaliser setting {name} = {value} is invalid: {why}")]
-    BadSetting {
-        /// The setting.
-        name: &'static str,
-        /// Its value.
-        value: f64,
-        /// Why it is refused.
-        why: &'static str,
-    },
 }

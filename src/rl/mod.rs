@@ -1,14 +1,15 @@
 //! Reinforcement learning on any plant: an episodic environment over the plant and a
-//! weather ([`Env`]), a running observation normaliser in the style of
-//! Stable-Baselines3's `VecNormalize` ([`Normalizer`]), a replay buffer, soft actor-critic
-//! trained with burn ([`sac`]), and the trained policy exported as plain weights
-//! ([`PolicyFile`]).
+//! weather ([`Env`]), a replay buffer, soft actor-critic trained with burn ([`sac`]), and
+//! the value-network fit. The trained agent it exports (the running observation
+//! normaliser [`Normalizer`], the policy as plain weights [`PolicyFile`], the observation
+//! and action map) lives one room below, in [`agent`](crate::agent), where
+//! [`control`](crate::control) can run it without depending on training; it is
+//! re-exported here under its former paths.
 //!
-//! * [`env`](mod@env): observation, action map, reward and episode bookkeeping;
-//! * [`normalize`]: running mean/variance of observations and the clipped standardisation;
+//! * [`env`](mod@env): reward and episode bookkeeping over the agent's observation and
+//!   action map;
 //! * [`buffer`]: the replay buffer;
 //! * [`sac`]: networks, Adam, the gradient step, the training loop and its checkpoints;
-//! * [`policy`]: the exported deterministic policy;
 //! * [`value_fit`]: the value network regression of RL-guided MPC;
 //! * [`error`]: the error type [`RlError`].
 //!
@@ -18,12 +19,9 @@
 pub mod buffer;
 pub mod env;
 pub mod error;
-pub mod normalize;
-pub mod policy;
 pub mod sac;
 pub mod value_fit;
 
+pub use crate::agent::{normalize, policy, AgentError, Normalizer, PolicyFile};
 pub use env::{Env, Transition};
 pub use error::RlError;
-pub use normalize::Normalizer;
-pub use policy::PolicyFile;

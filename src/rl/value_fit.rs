@@ -12,7 +12,7 @@ use crate::nn::scaled::{check_box, normalise_into_box};
 use crate::nn::{Activation, ScaledMlp};
 use crate::rl::sac::adam::Adam;
 use crate::rl::sac::net::{to_vec, Net};
-use crate::rl::RlError;
+use crate::rl::{AgentError, RlError};
 use burn::tensor::{Device, Tensor, TensorData};
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
@@ -113,10 +113,11 @@ pub fn fit_value(
 ) -> Result<(ScaledMlp, Vec<EpochLoss>), RlError> {
     let n = targets.len();
     if width == 0 || features.len() != n * width {
-        return Err(RlError::BatchShape {
+        return Err(AgentError::BatchShape {
             len: features.len(),
             width,
-        });
+        }
+        .into());
     }
     if n < 10 || config.batch_size == 0 || config.epochs == 0 {
         return Err(RlError::BadConfig {

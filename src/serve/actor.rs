@@ -15,9 +15,10 @@ use super::journal::{Entry, Journal, Outcome};
 use super::metrics::Metrics;
 use super::validate::{check, Checked};
 use super::ServeError;
-use crate::control::Observation;
+use crate::control::{Fallback, Observation};
 use crate::job::output::model_hash;
 use crate::job::{build_controller, RunSpec, StandaloneController};
+use crate::solve::SolveStatus;
 use axum::http::StatusCode;
 use std::collections::HashMap;
 use std::path::PathBuf;
@@ -300,7 +301,7 @@ impl Actor {
             Ok(r) if r.from_journal => self.metrics.journal_answer(),
             Ok(r) => self
                 .metrics
-                .decided(r.solve_time_ms / 1e3, r.fallback.as_deref()),
+                .decided(r.solve_time_ms / 1e3, r.fallback.map(Fallback::as_str)),
             Err(e) if decided && e.status == StatusCode::INTERNAL_SERVER_ERROR => {
                 self.metrics.controller_failed()
             }
@@ -569,7 +570,10 @@ fn describe(o: &Outcome) -> String {
     match o {
         Outcome::Answer(a) => format!(
             "input {:?} ({} iterations, status `{}`, fallback {:?})",
-            a.input, a.iterations, a.status, a.fallback
+            a.input,
+            a.iterations,
+            a.status.map_or("", SolveStatus::as_str),
+            a.fallback.map(Fallback::as_str)
         ),
         Outcome::Failed(m) => format!("a failure ({m})"),
     }

@@ -2,7 +2,9 @@
 //! description of `GET /model`, and the error body of every refusal. Plain serde types;
 //! checking a request against the model is [`validate`](super::validate)'s job.
 
+use crate::control::Fallback;
 use crate::job::RunSpec;
+use crate::solve::SolveStatus;
 use axum::http::StatusCode;
 use serde::{Deserialize, Serialize};
 
@@ -73,8 +75,9 @@ pub struct DecideResponse {
     /// The input to apply from step `k` to `k+1`, in the model's units (before the
     /// actuators' own clipping to bounds and rate limits).
     pub input: Vec<f64>,
-    /// The solver's status (empty for controllers without a solver).
-    pub status: String,
+    /// The solver's status (`""` for controllers without a solver).
+    #[serde(with = "status_name")]
+    pub status: Option<SolveStatus>,
     /// Solver iterations, over every attempt at this step.
     pub iterations: usize,
     /// Iterations whose Hessian the solver had to correct.
@@ -83,7 +86,7 @@ pub struct DecideResponse {
     pub solve_time_ms: f64,
     /// The fallback that produced the input when the first choice failed (`cold_start`,
     /// `shifted_plan`, `guide_input`, `hold_input`); `null` otherwise.
-    pub fallback: Option<String>,
+    pub fallback: Option<Fallback>,
     /// RL-guided MPC: the terminal region's state (`binding`, `inactive`); `null` otherwise.
     pub terminal_region: Option<String>,
     /// The predicted plan of the solve behind the input; `null` for controllers without one,
@@ -144,6 +147,24 @@ pub struct ModelInfo {
     pub disturbances: Vec<Quantity>,
     /// The outputs, in order, with their soft bands.
     pub outputs: Vec<Quantity>,
+}
+
+/// A [`SolveStatus`] as the API spells it: its snake-case name, `""` for none.
+mod status_name {
+    use crate::solve::SolveStatus;
+    use serde::{de, Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(status: &Option<SolveStatus>, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(status.map_or("", SolveStatus::as_str))
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<SolveStatus>, D::Error> {
+        let name = String::deserialize(d)?;
+        if name.is_empty() {
+            return Ok(None);
+        }
+        SolveStatus::deserialize(de::value::StrDeserializer::<D::Error>::new(&name)).map(Some)
+    }
 }
 
 /// The body of every refusal: what is wrong, in words.

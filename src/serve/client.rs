@@ -152,7 +152,10 @@ impl Controller for RemoteController {
                 .collect(),
             units: None,
         };
-        let body = serde_json::to_vec(&request).map_err(|e| fail(e.to_string()))?;
+        let body = serde_json::to_vec(&request).map_err(|source| ControlError::Json {
+            what: format!("cannot encode the request to {}/decide", self.base),
+            source,
+        })?;
         let (status, text) = self.call("POST", "/decide", Some(&body)).map_err(fail)?;
         if status != 200 {
             return Err(fail(format!(
@@ -161,12 +164,11 @@ impl Controller for RemoteController {
                 error_text(&text)
             )));
         }
-        let answer: DecideResponse = serde_json::from_str(&text).map_err(|e| {
-            fail(format!(
-                "{}/decide answered what is not a decision: {e}",
-                self.base
-            ))
-        })?;
+        let answer: DecideResponse =
+            serde_json::from_str(&text).map_err(|source| ControlError::Json {
+                what: format!("{}/decide answered what is not a decision", self.base),
+                source,
+            })?;
         if answer.step != o.step as u64 || answer.session != self.session {
             return Err(fail(format!(
                 "{}/decide answered for step {} of session {:?}; asked for step {} of {:?}",

@@ -300,7 +300,7 @@ mod tests {
                 session: session.into(),
                 step,
                 input: vec![input],
-                status: String::new(),
+                status: None,
                 iterations: 0,
                 inertia_corrections: 0,
                 solve_time_ms: 0.1,

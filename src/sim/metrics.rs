@@ -29,7 +29,7 @@ pub struct SolveStats {
     /// Solver iterations per step, averaged over the season.
     pub mean_iterations: f64,
     /// Steps whose final solver status was neither `optimal` nor `acceptable` (see
-    /// [`status_is_success`]).
+    /// [`StepRecord::solve_failed`]).
     pub failed_solves: usize,
     /// Steps whose input came from a fallback rather than the first solve.
     pub fallbacks: usize,
@@ -118,11 +118,6 @@ pub struct MetricsBuilder {
     fallbacks: usize,
 }
 
-/// Solver statuses that count as success.
-pub fn status_is_success(status: &str) -> bool {
-    status.is_empty() || status == "optimal" || status == "acceptable"
-}
-
 fn percentile(sorted: &[f64], q: f64) -> f64 {
     if sorted.is_empty() {
         return 0.0;
@@ -174,7 +169,7 @@ impl MetricsBuilder {
         }
         self.times_ms.push(record.solve_time_s * 1e3);
         self.iterations += record.iterations;
-        if !status_is_success(&record.status) {
+        if record.solve_failed() {
             self.failed += 1;
         }
         if record.fallback.is_some() {

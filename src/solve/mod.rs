@@ -34,11 +34,11 @@ pub use sqp::{Sqp, SqpOptions};
 pub use ipopt::{Ipopt, IpoptOptions};
 
 use crate::nlp::Nlp;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::fmt;
 
 /// How a solve ended.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum SolveStatus {
     /// KKT conditions hold to the requested tolerance.

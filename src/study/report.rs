@@ -9,6 +9,7 @@ use crate::job::folder;
 use crate::job::output::{io_err, write_atomically};
 use crate::report::atomic;
 use crate::report::plot::{draw_png, draw_svg, Figure, Line, Panel, Spread};
+use crate::report::table::csv_text;
 use crate::study::markdown::model_section;
 use crate::study::StudyError;
 use std::collections::BTreeMap;
@@ -260,17 +261,30 @@ fn number(v: f64) -> String {
 
 /// `results.csv`: every job of `rows`, one row each, in their order.
 pub fn write_results(out: &Path, rows: &[JobRow]) -> Result<(), StudyError> {
-    let mut text = String::from(
-        "model,controller,horizon,horizon_h,scenario,uncertainty,seed,epi,total_penalty,\
-cumulative_reward,failed_solves,median_ms,p95_ms,max_ms,folder\n",
-    );
-    for r in rows {
-        let fields = [
-            csv(&r.model),
-            csv(&r.controller),
-            csv(&r.horizon),
+    let header = [
+        "model",
+        "controller",
+        "horizon",
+        "horizon_h",
+        "scenario",
+        "uncertainty",
+        "seed",
+        "epi",
+        "total_penalty",
+        "cumulative_reward",
+        "failed_solves",
+        "median_ms",
+        "p95_ms",
+        "max_ms",
+        "folder",
+    ];
+    let records = rows.iter().map(|r| {
+        [
+            r.model.clone(),
+            r.controller.clone(),
+            r.horizon.clone(),
             r.horizon_h.map_or(String::new(), |h| format!("{h}")),
-            csv(&r.scenario),
+            r.scenario.clone(),
             format!("{}", r.uncertainty),
             format!("{}", r.seed),
             number(r.epi),
@@ -280,12 +294,11 @@ cumulative_reward,failed_solves,median_ms,p95_ms,max_ms,folder\n",
             number(r.median_ms),
             number(r.p95_ms),
             number(r.max_ms),
-            csv(&r.folder),
-        ];
-        text.push_str(&fields.join(","));
-        text.push('\n');
-    }
+            r.folder.clone(),
+        ]
+    });
     let path = out.join("results.csv");
+    let text = csv_text(header, records).map_err(io_err(&path))?;
     atomic::write(&path, text).map_err(io_err(&path))?;
     Ok(())
 }
@@ -294,45 +307,56 @@ cumulative_reward,failed_solves,median_ms,p95_ms,max_ms,folder\n",
 /// byte (shards merged or the study run whole); `<model>-solve-times.csv`: the solve
 /// times beside it, which no two runs share.
 fn write_model_csv(out: &Path, model: &str, lines: &[TableLine]) -> Result<(), StudyError> {
-    let mut text = String::from(
-        "controller,horizon,horizon_h,epi,cumulative_reward,stochastic_seasons,epi_mean,epi_min,epi_max,\
-reward_mean,reward_min,reward_max,failed_solves\n",
-    );
-    for l in lines {
+    let header = [
+        "controller",
+        "horizon",
+        "horizon_h",
+        "epi",
+        "cumulative_reward",
+        "stochastic_seasons",
+        "epi_mean",
+        "epi_min",
+        "epi_max",
+        "reward_mean",
+        "reward_min",
+        "reward_max",
+        "failed_solves",
+    ];
+    let records = lines.iter().map(|l| {
         let (epi, reward) = l.nominal.unwrap_or((f64::NAN, f64::NAN));
         let e = spread(l.stochastic.iter().map(|s| s.0)).unwrap_or((f64::NAN, f64::NAN, f64::NAN));
         let r = spread(l.stochastic.iter().map(|s| s.1)).unwrap_or((f64::NAN, f64::NAN, f64::NAN));
-        text.push_str(&format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
-            csv(&l.controller),
-            csv(&l.horizon),
+        [
+            l.controller.clone(),
+            l.horizon.clone(),
             l.horizon_h.map_or(String::new(), |h| format!("{h}")),
             number(epi),
             number(reward),
-            l.stochastic.len(),
+            l.stochastic.len().to_string(),
             number(e.0),
             number(e.1),
             number(e.2),
             number(r.0),
             number(r.1),
             number(r.2),
-            l.failed_solves,
-        ));
-    }
+            l.failed_solves.to_string(),
+        ]
+    });
     let path = out.join(format!("{model}.csv"));
+    let text = csv_text(header, records).map_err(io_err(&path))?;
     atomic::write(&path, text).map_err(io_err(&path))?;
-    let mut times = String::from("controller,horizon,horizon_h,median_ms,max_ms\n");
-    for l in lines {
-        times.push_str(&format!(
-            "{},{},{},{},{}\n",
-            csv(&l.controller),
-            csv(&l.horizon),
+    let header = ["controller", "horizon", "horizon_h", "median_ms", "max_ms"];
+    let records = lines.iter().map(|l| {
+        [
+            l.controller.clone(),
+            l.horizon.clone(),
             l.horizon_h.map_or(String::new(), |h| format!("{h}")),
             number(l.median_ms),
-            number(l.max_ms)
-        ));
-    }
+            number(l.max_ms),
+        ]
+    });
     let path = out.join(format!("{model}-solve-times.csv"));
+    let times = csv_text(header, records).map_err(io_err(&path))?;
     atomic::write(&path, times).map_err(io_err(&path))?;
     Ok(())
 }
@@ -445,15 +469,6 @@ fn draw_model(
     Ok(())
 }
 
-/// A CSV field, quoted when it holds a comma or a quote.
-pub fn csv(text: &str) -> String {
-    if text.contains([',', '"', '\n']) {
-        format!("\"{}\"", text.replace('"', "\"\""))
-    } else {
-        text.to_string()
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -510,8 +525,7 @@ mod tests {
 
     #[test]
     fn csv_fields_with_commas_are_quoted() {
-        assert_eq!(csv("MPC"), "MPC");
-        assert_eq!(csv("RL-MPC (sac, 6h)"), "\"RL-MPC (sac, 6h)\"");
-        assert_eq!(csv("a\"b"), "\"a\"\"b\"");
+        let text = csv_text(["c"], [["MPC"], ["RL-MPC (sac, 6h)"], ["a\"b"]]).unwrap();
+        assert_eq!(text, "c\nMPC\n\"RL-MPC (sac, 6h)\"\n\"a\"\"b\"\n");
     }
 }

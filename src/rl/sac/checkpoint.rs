@@ -1,4 +1,4 @@
-//! Training checkpoints: everything a [`Trainer`] needs to continue exactly where it
+//! Training checkpoints: everything a [`Trainer`](super::Trainer) needs to continue exactly where it
 //! stopped, in a folder `DIR/checkpoint/`:
 //!
 //! * `state.json`: the configuration, the agent (networks and Adam moments, `f32` values
@@ -12,7 +12,7 @@
 
 use crate::rl::buffer::ReplayBuffer;
 use crate::rl::sac::agent::Sac;
-use crate::rl::sac::trainer::{BestPolicy, EpisodeRecord, SacConfig, Trainer};
+use crate::rl::sac::types::{BestPolicy, EpisodeRecord, SacConfig};
 use crate::rl::{Normalizer, RlError};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -63,8 +63,29 @@ fn fail(path: &Path, why: impl std::fmt::Display) -> RlError {
     }
 }
 
-/// Writes `trainer`'s checkpoint into `dir/checkpoint/`.
-pub fn write(trainer: &Trainer, dir: &Path) -> Result<(), RlError> {
+/// What [`write()`] stores, borrowed from a running training
+/// ([`Trainer::save_checkpoint`](super::Trainer::save_checkpoint) lends its own).
+pub struct Snapshot<'a> {
+    /// The training's settings.
+    pub config: &'a SacConfig,
+    /// The agent: networks and optimiser states.
+    pub agent: &'a Sac,
+    /// The replay buffer.
+    pub buffer: &'a ReplayBuffer,
+    /// The observation statistics.
+    pub normalizer: &'a Normalizer,
+    /// The trainer's generator, at its exact position.
+    pub rng: &'a ChaCha8Rng,
+    /// Environment steps taken so far.
+    pub total_steps: u64,
+    /// The learning curve so far.
+    pub curve: &'a [EpisodeRecord],
+    /// The best evaluated policy so far, if any.
+    pub best: Option<&'a BestPolicy>,
+}
+
+/// Writes a training's checkpoint into `dir/checkpoint/`.
+pub fn write(snapshot: &Snapshot<'_>, dir: &Path) -> Result<(), RlError> {
     let partial = dir.join("checkpoint.partial");
     let current = dir.join("checkpoint");
     let previous = dir.join("checkpoint.previous");
@@ -74,21 +95,21 @@ pub fn write(trainer: &Trainer, dir: &Path) -> Result<(), RlError> {
     std::fs::create_dir_all(&partial).map_err(|e| fail(&partial, e))?;
     let state = State {
         format: FORMAT,
-        config: trainer.config.clone(),
-        agent: trainer.agent.clone(),
-        normalizer: trainer.normalizer.clone(),
-        rng_seed: trainer.rng.get_seed(),
-        rng_stream: trainer.rng.get_stream(),
-        rng_word_pos: trainer.rng.get_word_pos().to_string(),
-        total_steps: trainer.total_steps,
-        curve: trainer.curve.clone(),
-        best: trainer.best.clone(),
+        config: snapshot.config.clone(),
+        agent: snapshot.agent.clone(),
+        normalizer: snapshot.normalizer.clone(),
+        rng_seed: snapshot.rng.get_seed(),
+        rng_stream: snapshot.rng.get_stream(),
+        rng_word_pos: snapshot.rng.get_word_pos().to_string(),
+        total_steps: snapshot.total_steps,
+        curve: snapshot.curve.to_vec(),
+        best: snapshot.best.cloned(),
     };
     let state_path = partial.join("state.json");
     let text = serde_json::to_string(&state).map_err(|e| fail(&state_path, e))?;
     std::fs::write(&state_path, text).map_err(|e| fail(&state_path, e))?;
     let buffer_path = partial.join("buffer.bin");
-    trainer
+    snapshot
         .buffer
         .save(&buffer_path)
         .map_err(|e| fail(&buffer_path, e))?;

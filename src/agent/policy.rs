@@ -4,12 +4,12 @@
 //! RL-guided MPC load; it needs no training framework to run, and it evaluates over dual
 //! numbers, so an optimiser can differentiate through it.
 
+use crate::agent::observation::observation_names;
+use crate::agent::{AgentError, Normalizer};
 use crate::graph::Real;
 use crate::lang::Model;
 use crate::nn::Mlp;
 use crate::report::atomic;
-use crate::rl::env::observation_names;
-use crate::rl::{Normalizer, RlError};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -91,7 +91,7 @@ impl PolicyFile {
     /// standardised and clipped as in training (the clip's derivative is zero outside).
     ///
     /// ```
-    /// use ghm::rl::PolicyFile;
+    /// use ghm::agent::PolicyFile;
     /// use num_dual::{first_derivative, DualNum};
     ///
     /// let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/agents/lettuce");
@@ -112,10 +112,10 @@ impl PolicyFile {
     /// );
     /// assert!(slope.is_finite());
     /// ```
-    pub fn action<T: Real>(&self, observation: &[T]) -> Result<Vec<T>, RlError> {
+    pub fn action<T: Real>(&self, observation: &[T]) -> Result<Vec<T>, AgentError> {
         let width = self.normalizer.width();
         if observation.len() != width {
-            return Err(RlError::ObservationWidth {
+            return Err(AgentError::ObservationWidth {
                 given: observation.len(),
                 expected: width,
             });
@@ -138,12 +138,12 @@ impl PolicyFile {
             .collect();
         self.actor
             .try_forward(&standard)
-            .map_err(|e| RlError::Backend(e.to_string()))
+            .map_err(|e| AgentError::Network(e.to_string()))
     }
 
     /// Writes the policy as JSON, atomically (see [`atomic`]).
-    pub fn save(&self, path: &Path) -> Result<(), RlError> {
-        let fail = |reason: String| RlError::PolicyFile {
+    pub fn save(&self, path: &Path) -> Result<(), AgentError> {
+        let fail = |reason: String| AgentError::PolicyFile {
             path: path.to_path_buf(),
             reason,
         };
@@ -153,8 +153,8 @@ impl PolicyFile {
 
     /// Reads a policy written by [`PolicyFile::save`] and checks that its parts fit; an
     /// error names the file and the field.
-    pub fn load(path: &Path) -> Result<PolicyFile, RlError> {
-        let fail = |reason: String| RlError::PolicyFile {
+    pub fn load(path: &Path) -> Result<PolicyFile, AgentError> {
+        let fail = |reason: String| AgentError::PolicyFile {
             path: path.to_path_buf(),
             reason,
         };
@@ -166,8 +166,8 @@ impl PolicyFile {
     /// order; the action names only where the file records them). A policy trained on a
     /// model of another name but with the same observation and inputs passes: the caller
     /// may warn about the name.
-    pub fn check_fits(&self, model: &Model, path: &Path) -> Result<(), RlError> {
-        let fail = |reason: String| RlError::PolicyFile {
+    pub fn check_fits(&self, model: &Model, path: &Path) -> Result<(), AgentError> {
+        let fail = |reason: String| AgentError::PolicyFile {
             path: path.to_path_buf(),
             reason,
         };

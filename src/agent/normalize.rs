@@ -12,7 +12,7 @@
 //! The normaliser is `serde`-serialisable so that it can be saved beside an agent; a
 //! deserialised one is checked like [`Normalizer::from_stats`].
 
-use crate::rl::RlError;
+use crate::agent::AgentError;
 use serde::{Deserialize, Serialize};
 
 /// SB3's `RunningMeanStd` initial count.
@@ -28,7 +28,7 @@ pub const DEFAULT_CLIP: f64 = 10.0;
 ///
 /// ```
 /// # fn main() -> Result<(), Box<dyn std::error::Error>> {
-/// use ghm::rl::Normalizer;
+/// use ghm::agent::Normalizer;
 ///
 /// // From a zero prior count, the statistics are those of the data: μ = (2, 10),
 /// // σ² = (1, 0) over the batch (1, 10), (3, 10).
@@ -73,8 +73,8 @@ struct NormalizerData {
 }
 
 impl TryFrom<NormalizerData> for Normalizer {
-    type Error = RlError;
-    fn try_from(d: NormalizerData) -> Result<Normalizer, RlError> {
+    type Error = AgentError;
+    fn try_from(d: NormalizerData) -> Result<Normalizer, AgentError> {
         let mut n = Normalizer::from_stats(d.mean, d.var, d.count)?
             .with_clip(d.clip)?
             .with_epsilon(d.epsilon)?;
@@ -96,8 +96,8 @@ impl From<Normalizer> for NormalizerData {
     }
 }
 
-fn bad(name: &'static str, value: f64, why: &'static str) -> RlError {
-    RlError::BadSetting { name, value, why }
+fn bad(name: &'static str, value: f64, why: &'static str) -> AgentError {
+    AgentError::BadSetting { name, value, why }
 }
 
 impl Normalizer {
@@ -118,12 +118,12 @@ impl Normalizer {
     /// default `ε` and clip, not frozen. A count of 0 makes the first update take the batch's
     /// moments as they are.
     ///
-    /// Errors: [`RlError::ObservationWidth`] if `var` and `mean` differ in length,
-    /// [`RlError::BadSetting`] for a non-finite mean, a negative or non-finite variance, or a
+    /// Errors: [`AgentError::ObservationWidth`] if `var` and `mean` differ in length,
+    /// [`AgentError::BadSetting`] for a non-finite mean, a negative or non-finite variance, or a
     /// negative or non-finite count.
-    pub fn from_stats(mean: Vec<f64>, var: Vec<f64>, count: f64) -> Result<Normalizer, RlError> {
+    pub fn from_stats(mean: Vec<f64>, var: Vec<f64>, count: f64) -> Result<Normalizer, AgentError> {
         if var.len() != mean.len() {
-            return Err(RlError::ObservationWidth {
+            return Err(AgentError::ObservationWidth {
                 given: var.len(),
                 expected: mean.len(),
             });
@@ -148,7 +148,7 @@ impl Normalizer {
     }
 
     /// Sets the clip bound `c` (> 0; may be infinite for no clipping).
-    pub fn with_clip(mut self, clip: f64) -> Result<Normalizer, RlError> {
+    pub fn with_clip(mut self, clip: f64) -> Result<Normalizer, AgentError> {
         if clip.is_nan() || clip <= 0.0 {
             return Err(bad("clip", clip, "must be > 0"));
         }
@@ -157,7 +157,7 @@ impl Normalizer {
     }
 
     /// Sets `ε` under the square root (finite, ≥ 0).
-    pub fn with_epsilon(mut self, epsilon: f64) -> Result<Normalizer, RlError> {
+    pub fn with_epsilon(mut self, epsilon: f64) -> Result<Normalizer, AgentError> {
         if !(epsilon.is_finite() && epsilon >= 0.0) {
             return Err(bad("epsilon", epsilon, "must be finite and ≥ 0"));
         }
@@ -210,9 +210,9 @@ impl Normalizer {
         self.frozen
     }
 
-    fn check_width(&self, given: usize) -> Result<(), RlError> {
+    fn check_width(&self, given: usize) -> Result<(), AgentError> {
         if given != self.width() {
-            return Err(RlError::ObservationWidth {
+            return Err(AgentError::ObservationWidth {
                 given,
                 expected: self.width(),
             });
@@ -223,8 +223,8 @@ impl Normalizer {
     /// Merges one observation (a batch of one: its mean, zero variance, count 1), as SB3's
     /// `VecNormalize` does with a single environment. No effect when frozen.
     ///
-    /// Errors: [`RlError::ObservationWidth`].
-    pub fn update(&mut self, obs: &[f64]) -> Result<(), RlError> {
+    /// Errors: [`AgentError::ObservationWidth`].
+    pub fn update(&mut self, obs: &[f64]) -> Result<(), AgentError> {
         self.check_width(obs.len())?;
         if self.frozen {
             return Ok(());
@@ -240,14 +240,14 @@ impl Normalizer {
     /// batch's mean and population variance (two passes) are merged into the running moments.
     /// An empty batch, or a frozen normaliser, changes nothing.
     ///
-    /// Errors: [`RlError::BatchShape`].
-    pub fn update_batch(&mut self, rows: &[f64]) -> Result<(), RlError> {
+    /// Errors: [`AgentError::BatchShape`].
+    pub fn update_batch(&mut self, rows: &[f64]) -> Result<(), AgentError> {
         let w = self.width();
         if w == 0 || rows.len() % w != 0 {
             if rows.is_empty() {
                 return Ok(());
             }
-            return Err(RlError::BatchShape {
+            return Err(AgentError::BatchShape {
                 len: rows.len(),
                 width: w,
             });
@@ -269,8 +269,8 @@ impl Normalizer {
 
     /// Writes `clip((s − μ)/√(σ² + ε), −c, c)` into `out`.
     ///
-    /// Errors: [`RlError::ObservationWidth`] if `obs` or `out` has the wrong length.
-    pub fn normalize(&self, obs: &[f64], out: &mut [f64]) -> Result<(), RlError> {
+    /// Errors: [`AgentError::ObservationWidth`] if `obs` or `out` has the wrong length.
+    pub fn normalize(&self, obs: &[f64], out: &mut [f64]) -> Result<(), AgentError> {
         self.check_width(obs.len())?;
         self.check_width(out.len())?;
         for (i, (o, &s)) in out.iter_mut().zip(obs).enumerate() {
@@ -282,13 +282,13 @@ impl Normalizer {
     /// [`Normalizer::normalize`] into `f32` (the precision of the networks), with `scratch`
     /// as the `f64` buffer.
     ///
-    /// Errors: [`RlError::ObservationWidth`].
+    /// Errors: [`AgentError::ObservationWidth`].
     pub fn normalize_f32(
         &self,
         obs: &[f64],
         scratch: &mut [f64],
         out: &mut [f32],
-    ) -> Result<(), RlError> {
+    ) -> Result<(), AgentError> {
         self.normalize(obs, scratch)?;
         for (o, s) in out.iter_mut().zip(scratch.iter()) {
             *o = *s as f32;
@@ -298,8 +298,8 @@ impl Normalizer {
 
     /// [`Normalizer::normalize`] in place.
     ///
-    /// Errors: [`RlError::ObservationWidth`].
-    pub fn normalize_in_place(&self, obs: &mut [f64]) -> Result<(), RlError> {
+    /// Errors: [`AgentError::ObservationWidth`].
+    pub fn normalize_in_place(&self, obs: &mut [f64]) -> Result<(), AgentError> {
         self.check_width(obs.len())?;
         for (i, s) in obs.iter_mut().enumerate() {
             *s = self.one(i, *s);
@@ -464,14 +464,14 @@ mod tests {
         let mut n = Normalizer::new(3);
         assert_eq!(
             n.update(&[1.0, 2.0]),
-            Err(RlError::ObservationWidth {
+            Err(AgentError::ObservationWidth {
                 given: 2,
                 expected: 3
             })
         );
         assert_eq!(
             n.update_batch(&[1.0; 7]),
-            Err(RlError::BatchShape { len: 7, width: 3 })
+            Err(AgentError::BatchShape { len: 7, width: 3 })
         );
         let mut out = [0.0; 2];
         assert!(n.normalize(&[1.0; 3], &mut out).is_err());
