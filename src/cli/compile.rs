@@ -68,6 +68,6 @@ pub fn run(args: &CompileArgs) -> Result<(), CliError> {
 fn embed_error(e: EmbedError) -> CliError {
     match e {
         EmbedError::Job(j) => CliError::Job(j),
-        other => CliError::Argument(other.to_string()),
+        other => CliError::Embed(other),
     }
 }

@@ -38,6 +38,30 @@ pub enum CliError {
     /// the trainer or a value fit; the message says which.
     #[error("{0}")]
     Argument(String),
+    /// A service could not start or stopped (`ghm serve`, `ghm replay`'s client).
+    #[error(transparent)]
+    Serve(#[from] crate::serve::ServeError),
+    /// A controller could not be compiled (`ghm compile`).
+    #[error(transparent)]
+    Embed(#[from] crate::embed::EmbedError),
+    /// A file could not be read or written; `what` says which and how.
+    #[error("{what}: {source}")]
+    Io {
+        /// `cannot read FILE`, `cannot write FILE`.
+        what: String,
+        /// The I/O error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A JSON file ghm wrote could not be read back; `what` names it (and the field).
+    #[error("{what}: {source}")]
+    Json {
+        /// The file, and the field where one is meant.
+        what: String,
+        /// The decoding error.
+        #[source]
+        source: serde_json::Error,
+    },
     /// `ghm check --verify-derivatives`: the exact derivatives of the step differ from the
     /// numerical ones; holds the largest relative error (Jacobian or Hessian), above 1e-6.
     #[error("derivative check failed: largest relative error {0:.3e} exceeds 1e-6")]

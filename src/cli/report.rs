@@ -50,13 +50,17 @@ pub fn run(args: &ReportArgs) -> Result<(), CliError> {
     );
     if let Some(document) = &args.into {
         let name = relative_to_document(document, &args.out);
-        let text = std::fs::read_to_string(document)
-            .map_err(|e| CliError::Argument(format!("cannot read {}: {e}", document.display())))?;
+        let text = std::fs::read_to_string(document).map_err(|source| CliError::Io {
+            what: format!("cannot read {}", document.display()),
+            source,
+        })?;
         let generated = report_markdown(&rows, &format!("{name}/"));
         let text = splice(&text, &name, &generated)
             .map_err(|e| CliError::Argument(format!("{} {e}", document.display())))?;
-        atomic::write(document, text)
-            .map_err(|e| CliError::Argument(format!("cannot write {}: {e}", document.display())))?;
+        atomic::write(document, text).map_err(|source| CliError::Io {
+            what: format!("cannot write {}", document.display()),
+            source,
+        })?;
         println!("tables and figures of {name} → {}", document.display());
     }
     Ok(())

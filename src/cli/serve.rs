@@ -125,6 +125,6 @@ pub fn run(args: &ServeArgs) -> Result<(), CliError> {
 pub fn serve_error(e: crate::serve::ServeError) -> CliError {
     match e {
         crate::serve::ServeError::Job(j) => CliError::Job(j),
-        other => CliError::Argument(other.to_string()),
+        other => CliError::Serve(other),
     }
 }

@@ -130,8 +130,11 @@ fn recorded_season(dir: &Path, args: &TrainArgs, hash: &str) -> Result<Season, C
     let Ok(text) = std::fs::read_to_string(&path) else {
         return Ok(given);
     };
-    let summary: serde_json::Value = serde_json::from_str(&text)
-        .map_err(|e| CliError::Argument(format!("{}: {e}", path.display())))?;
+    let summary: serde_json::Value =
+        serde_json::from_str(&text).map_err(|source| CliError::Json {
+            what: path.display().to_string(),
+            source,
+        })?;
     if let Some(h) = summary["model_sha256"].as_str().filter(|h| *h != hash) {
         return Err(CliError::Argument(format!(
             "{} was trained on another model (sha256 {h}); pass the same model file",
@@ -141,8 +144,11 @@ fn recorded_season(dir: &Path, args: &TrainArgs, hash: &str) -> Result<Season, C
     let Some(recorded) = summary.get("season") else {
         return Ok(given);
     };
-    let recorded: Season = serde_json::from_value(recorded.clone())
-        .map_err(|e| CliError::Argument(format!("{}: \"season\": {e}", path.display())))?;
+    let recorded: Season =
+        serde_json::from_value(recorded.clone()).map_err(|source| CliError::Json {
+            what: format!("{}: \"season\"", path.display()),
+            source,
+        })?;
     let conflict = |option: &str| {
         CliError::Argument(format!(
             "{option} differs from the training in {} (it was started with {}); a resumed training keeps its season: drop the option",

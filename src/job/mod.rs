@@ -50,6 +50,10 @@ pub enum JobError {
     /// failed, the state diverged, or the step log could not be written.
     #[error("{0}")]
     Simulation(#[from] crate::sim::season::SimError),
+    /// A training or value fit failed (the trainer's, the environment's or the fit's
+    /// error).
+    #[error(transparent)]
+    Rl(#[from] crate::rl::RlError),
     /// A value of the spec is out of range, or a file it names (agent, value network,
     /// inputs) is missing or does not fit the model; the message says which.
     #[error("{0}")]

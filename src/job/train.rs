@@ -205,7 +205,7 @@ pub fn run_train_job(
 
 /// A trainer's error as the job layer's.
 pub fn rl(e: crate::rl::RlError) -> JobError {
-    JobError::Spec(e.to_string())
+    JobError::Rl(e)
 }
 
 /// Trains until the last episode, writing the curve after every episode and a checkpoint

@@ -223,7 +223,7 @@ fn fit_and_write(
             ));
         },
     )
-    .map_err(|e| JobError::Spec(e.to_string()))?;
+    .map_err(JobError::Rl)?;
     fit_bar.finish_and_clear();
     let fit_s = fit_started.elapsed().as_secs_f64();
     let last = curve.last().copied().unwrap_or(EpochLoss {
