@@ -41,17 +41,16 @@ def main() -> None:
     for episode in range(args.episodes):
         observation, info = env.reset(seed=args.seed + episode)
         total, done = 0.0, False
-        try:
-            while not done:
-                action = env.action_space.sample()
-                observation, reward, terminated, truncated, info = env.step(action)
-                total += reward
-                steps += 1
-                done = terminated or truncated
-        except RuntimeError as error:
-            # A plant driven out of its range by random inputs (a runaway CSTR, say):
-            # ghm stops the season at the first number that is not finite, and says where.
-            print(f"episode {episode}: stopped: {error}")
+        while not done:
+            action = env.action_space.sample()
+            observation, reward, terminated, truncated, info = env.step(action)
+            total += reward
+            steps += 1
+            done = terminated or truncated
+        if "diverged" in info:
+            # A plant driven out of its range by random inputs (a runaway CSTR, say): ghm
+            # ends the episode at the first number that is not finite, and says where.
+            print(f"episode {episode}: stopped: {info['diverged']}")
             continue
         returns.append(total)
         print(f"episode {episode}: return {total:+.4f} over {info['step']} steps")

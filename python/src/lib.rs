@@ -6,7 +6,7 @@
 //! `python/python/ghm/__init__.py`. Arrays cross the boundary as NumPy `float64` arrays.
 //! Every error becomes a Python exception carrying ghm's own message (a bad model's
 //! diagnostics with file, line and column): [`ModelError`] for a model that does not
-//! check, `ValueError` for bad arguments and data, `RuntimeError` for a diverged episode.
+//! check, `ValueError` for bad arguments and data, [`DivergedError`] (a `RuntimeError`) for a step whose state diverged.
 
 mod controllers;
 
@@ -16,7 +16,7 @@ use ghm::sim::season::{UncertaintyDraw, MAX_SEASON_STEPS};
 use ghm::sim::weather_source::{season_weather, WeatherSource};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::create_exception;
-use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::{Path, PathBuf};
@@ -29,6 +29,13 @@ create_exception!(
     "A .ghm model that does not check; the message holds ghm's diagnostics."
 );
 
+create_exception!(
+    _ghm,
+    DivergedError,
+    pyo3::exceptions::PyRuntimeError,
+    "A step whose state is no longer a finite number: the episode is over (`Env.step` ends it)."
+);
+
 /// Loads and checks a model, its diagnostics rendered into the exception's message.
 fn load_plant(path: &Path) -> PyResult<Arc<Plant>> {
     let model = ghm::lang::load(path).map_err(|e| ModelError::new_err(e.render()))?;
@@ -38,7 +45,7 @@ fn load_plant(path: &Path) -> PyResult<Arc<Plant>> {
 /// An environment error as the Python exception that says what it is.
 fn rl_error(e: RlError) -> PyErr {
     match e {
-        RlError::Diverged { .. } => PyRuntimeError::new_err(e.to_string()),
+        RlError::Diverged { .. } => DivergedError::new_err(e.to_string()),
         _ => PyValueError::new_err(e.to_string()),
     }
 }
@@ -280,10 +287,16 @@ impl RawVecEnv {
             for (a, &v) in action.iter_mut().zip(row.iter()) {
                 *a = v;
             }
-            let t = env.step(&action).map_err(rl_error)?;
-            rewards.push(t.reward);
-            dones.push(t.done);
-            if t.done {
+            // A season whose state diverged ends here, as one that ran out: done, with no
+            // reward for the step that could not be taken, and reset.
+            let (reward, done) = match env.step(&action) {
+                Ok(t) => (t.reward, t.done),
+                Err(RlError::Diverged { .. }) => (0.0, true),
+                Err(e) => return Err(rl_error(e)),
+            };
+            rewards.push(reward);
+            dones.push(done);
+            if done {
                 observations.extend_from_slice(env.reset());
             } else {
                 observations.extend_from_slice(env.observation());
@@ -370,5 +383,6 @@ fn _ghm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(load, m)?)?;
     m.add_function(wrap_pyfunction!(controllers::season, m)?)?;
     m.add("ModelError", m.py().get_type::<ModelError>())?;
+    m.add("DivergedError", m.py().get_type::<DivergedError>())?;
     Ok(())
 }

@@ -140,3 +140,42 @@ def test_bad_arguments_and_actions_are_exceptions_not_crashes():
         env.step([float("nan"), 0.0, 0.0])
     with pytest.raises(ValueError):
         ghm.VecEnv(MODELS / "lettuce.ghm", 2, days=1).step(np.zeros((3, 3)))
+
+
+BLOWUP = """model blowup "a state that leaves the numbers under a large input"
+sample 1 [s] integrator rk4 substeps 1
+state x [m] = 1 "grows as x squared times the drive"
+input u [m s^-1] in [0, 1e6] start 0 "drive"
+der x = u * x * x
+output y [m] = x
+cost drive [EUR] = -0.001 * u
+"""
+
+
+def test_a_diverged_step_ends_the_episode_instead_of_raising(tmp_path):
+    model = tmp_path / "blowup.ghm"
+    model.write_text(BLOWUP)
+    env = ghm.Env(model, days=0.01)
+    previous, _ = env.reset(seed=1)
+    # Full drive: x reaches 4e85 after one step, overflows in the second.
+    for _ in range(5):
+        observation, reward, terminated, truncated, info = env.step(np.ones(1))
+        if terminated:
+            break
+        previous = observation
+    assert terminated and not truncated
+    assert reward == 0.0
+    assert "`x`" in info["diverged"] and "inf" in info["diverged"], info
+    np.testing.assert_array_equal(observation, previous)
+    # The raw step says why, as its own exception (a RuntimeError).
+    assert issubclass(ghm.DivergedError, RuntimeError)
+    # Batched: the diverged environment is done, rewarded 0 and reset; the other goes on.
+    vec = ghm.VecEnv(model, 2, days=0.01)
+    first = vec.reset()[0]
+    actions = np.array([[1.0], [-1.0]])
+    _, _, dones = vec.step(actions)
+    assert list(dones) == [False, False]
+    observations, rewards, dones = vec.step(actions)
+    assert list(dones) == [True, False]
+    assert rewards[0] == 0.0
+    np.testing.assert_array_equal(observations[0], first)

@@ -9,7 +9,10 @@ trains on): the same observation, action and reward, bit for bit.
 * reward: the model's economic reward of the step minus its soft-band penalties.
 
 The season ends after ``days`` days; the step index is part of the observation, so the
-end is part of the problem and is reported as ``terminated``.
+end is part of the problem and is reported as ``terminated``. A step whose state is no
+longer a finite number (an action that drove the plant outside what its model can
+integrate) ends the episode too: ``terminated``, reward 0, the last finite observation,
+and ``info["diverged"]`` with ghm's message, as ghm's own trainer ends such an episode.
 
 ``ghm.VecEnv`` steps many environments of one model inside Rust with one call per batch;
 ``ghm.load`` returns a model's declarations (names, units, bounds). ``ghm.Mpc``,
@@ -30,7 +33,7 @@ import numpy as np
 from gymnasium import spaces
 
 from . import _ghm
-from ._ghm import ModelError, load
+from ._ghm import DivergedError, ModelError, load
 from .control import Controller, Expert, Mpc, Policy, RlMpc, Season, optimum, simulate
 from .policy import from_sb3, policy_action, read_policy, write_policy
 
@@ -38,6 +41,7 @@ __all__ = [
     "Env",
     "VecEnv",
     "ModelError",
+    "DivergedError",
     "load",
     "Season",
     "Controller",
@@ -107,11 +111,17 @@ class Env(gymnasium.Env):
         if seed is not None:
             self._raw.reseed(int(seed))
         observation = self._raw.reset()
+        self._last_observation = observation
         return observation, {"step": 0}
 
     def step(self, action):
         action = np.asarray(action, dtype=np.float64).reshape(-1)
-        observation, reward, economic, done, applied = self._raw.step(action)
+        try:
+            observation, reward, economic, done, applied = self._raw.step(action)
+        except DivergedError as diverged:
+            info = {"diverged": str(diverged), "step": self._raw.step_index}
+            return self._last_observation, 0.0, True, False, info
+        self._last_observation = observation
         info: dict[str, Any] = {
             "economic": economic,
             "input": applied,
@@ -129,8 +139,9 @@ class VecEnv:
     """``count`` environments of one model stepped together inside Rust.
 
     ``step(actions)`` takes an array of shape ``(count, inputs)`` and returns
-    ``(observations, rewards, dones)``; an environment whose season ended is reset in the
-    same call (its row of ``observations`` is the new season's first). Environment ``i``
+    ``(observations, rewards, dones)``; an environment whose season ended, or whose state
+    diverged (reward 0 for that step), is reset in the same call (its row of
+    ``observations`` is the new season's first). Environment ``i``
     draws its parameters from ``seed + i``.
     """
 
