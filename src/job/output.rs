@@ -231,6 +231,16 @@ pub fn progress_bar(len: u64, template: &str) -> ProgressBar {
     bar
 }
 
+/// [`progress_bar`] where a job is verbose; a hidden bar (drawing nothing) where it is quiet,
+/// as a study's jobs are.
+pub fn progress_bar_if(verbose: bool, len: u64, template: &str) -> ProgressBar {
+    if verbose {
+        progress_bar(len, template)
+    } else {
+        ProgressBar::hidden()
+    }
+}
+
 /// Writes `summary.json`.
 pub fn write_summary(dir: &Path, summary: &serde_json::Value) -> Result<(), JobError> {
     let path = dir.join("summary.json");

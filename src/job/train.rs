@@ -10,7 +10,7 @@
 //! ran).
 
 use crate::job::folder::{self, RunFolder};
-use crate::job::output::{model_hash, progress_bar, write_atomically, write_summary};
+use crate::job::output::{model_hash, progress_bar_if, write_atomically, write_summary};
 use crate::job::{load_model, JobError, JobOptions, WeatherSpec};
 use crate::model::Plant;
 use crate::report::plot::{draw_xy, Line};
@@ -220,14 +220,11 @@ pub fn train(
 ) -> Result<(), JobError> {
     let config = trainer.config().clone();
     let episode_steps = meta["episode_steps"].as_u64().unwrap_or(1);
-    let bar = if verbose {
-        progress_bar(
-            (config.episodes as u64) * episode_steps,
-            "{bar:30} {percent:>3}% {msg} [{elapsed_precise}, eta {eta}]",
-        )
-    } else {
-        indicatif::ProgressBar::hidden()
-    };
+    let bar = progress_bar_if(
+        verbose,
+        (config.episodes as u64) * episode_steps,
+        "{bar:30} {percent:>3}% {msg} [{elapsed_precise}, eta {eta}]",
+    );
     bar.set_position((trainer.episodes_done() as u64) * episode_steps);
     let unit = plant.model.objective_unit();
     let started = Instant::now();
@@ -252,10 +249,11 @@ pub fn train(
         session_steps += record.steps as u64;
         last = Some(record.reward);
         let line = describe(&record, &unit);
-        if verbose && bar.is_hidden() {
-            println!("{line}");
-        } else if verbose {
-            bar.println(line);
+        if verbose {
+            match bar.is_hidden() {
+                true => println!("{line}"),
+                false => bar.println(line),
+            }
         }
         write_curve(dir, trainer.curve())?;
         if record.episode % checkpoint_every == 0 || trainer.is_finished() {

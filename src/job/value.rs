@@ -7,7 +7,7 @@
 
 use crate::control::ValueFile;
 use crate::job::build::{guide_factory, resolve_guide_policy, GuideFactory};
-use crate::job::output::{model_hash, progress_bar, write_atomically, write_summary};
+use crate::job::output::{model_hash, progress_bar_if, write_atomically, write_summary};
 use crate::job::{load_model, GuideChoice, JobError, JobOptions, RunFolder, WeatherSpec};
 use crate::model::Plant;
 use crate::report::plot::{draw_xy, Line};
@@ -138,13 +138,7 @@ fn fit_and_write(
     let started = Instant::now();
     let mut guide = make_guide();
     let nominal = nominal_run(plant, weather, steps, guide.as_mut())?;
-    let bar = |len, template: &str| {
-        if verbose {
-            progress_bar(len, template)
-        } else {
-            indicatif::ProgressBar::hidden()
-        }
-    };
+    let bar = |len, template: &str| progress_bar_if(verbose, len, template);
     let progress = bar(
         args.trajectories as u64,
         "roll-outs {bar:30} {pos}/{len} [{elapsed_precise}, eta {eta}]",
