@@ -382,6 +382,20 @@ fn a_study_trains_its_own_agents_before_the_seasons_that_read_them() {
     assert_eq!(training["uncertainty"], 0.05);
     // Only the seasons are rows of the results.
     assert_eq!(results(&dir).len(), 6);
+    // Every job's time is logged, phase after phase.
+    let timings = timing_rows(&dir);
+    assert_eq!(timings.len(), AGENT_JOBS, "{timings:?}");
+    let phases: Vec<&str> = timings.iter().map(|r| r[2].as_str()).collect();
+    let mut in_order = phases.clone();
+    in_order.sort_by_key(|p| {
+        ["trainings", "value fits", "seasons"]
+            .iter()
+            .position(|q| q == p)
+    });
+    assert_eq!(phases, in_order, "{timings:?}");
+    assert!(timings
+        .iter()
+        .all(|r| r[5] == "complete" && r[4].parse::<f64>().unwrap() > 0.0));
 
     // A training interrupted after its last checkpoint continues from it, and what reads
     // it is not run again.
@@ -403,5 +417,23 @@ fn a_study_trains_its_own_agents_before_the_seasons_that_read_them() {
     .unwrap();
     assert_eq!(summary["this_session"]["environment_steps"], 0, "{summary}");
     assert_eq!(summary["episodes_done"], 3);
+    // The rerun's one job is appended to the timings.
+    let timings = timing_rows(&dir);
+    assert_eq!(timings.len(), AGENT_JOBS + 1);
+    assert_eq!(timings[AGENT_JOBS][0], "lettuce/agents/nominal");
+    assert_eq!(timings[AGENT_JOBS][1], "train");
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The rows of a study's `timings.csv`, its header checked.
+fn timing_rows(dir: &Path) -> Vec<Vec<String>> {
+    let text = std::fs::read_to_string(dir.join("timings.csv")).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next(),
+        Some("job,kind,phase,started_unix,wall_s,status")
+    );
+    lines
+        .map(|l| l.split(',').map(String::from).collect())
+        .collect()
 }

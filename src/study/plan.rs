@@ -131,6 +131,15 @@ impl Work {
         }
     }
 
+    /// The phase's name, as the study's log and `timings.csv` say it.
+    pub fn phase_name(&self) -> &'static str {
+        match self {
+            Work::Train(_) => "trainings",
+            Work::Value(_) => "value fits",
+            Work::Season(_) => "seasons",
+        }
+    }
+
     /// The phase it runs in: a job reads only jobs of earlier phases.
     pub fn phase(&self) -> usize {
         match self {

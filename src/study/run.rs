@@ -1,6 +1,7 @@
 //! Running a planned study: which jobs are already done, the rest in parallel on a pool of
-//! threads with one progress view, and `results.csv` gathered from every complete job
-//! ([`report::write_results`]).
+//! threads with one progress view, `timings.csv` appended as each job ends (so that a
+//! study's time, phase by phase, survives a kill), and `results.csv` gathered from every
+//! complete job ([`report::write_results`]).
 
 use crate::job::folder;
 use crate::job::output::{io_err, progress_bar};
@@ -8,14 +9,17 @@ use crate::job::train::run_train_job;
 use crate::job::value::run_value_job;
 use crate::job::{run_season_job, JobError, JobOptions};
 use crate::report::atomic;
+use crate::report::table::csv_writer;
 use crate::study::plan::{plan, Job, Work};
 use crate::study::report;
 use crate::study::StudyError;
 use rayon::prelude::*;
 use serde_json::json;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::time::Instant;
+use std::sync::Mutex;
+use std::time::{Instant, SystemTime, UNIX_EPOCH};
 
 /// A deterministic slice of a study's jobs: job `k` (in plan order) belongs to shard
 /// `k mod count`.
@@ -198,10 +202,12 @@ fn run_pending(
         .num_threads(options.threads.max(1))
         .build()
         .map_err(|e| StudyError::Shard(format!("cannot start the study's threads: {e}")))?;
+    let timings = Timings::open(out)?;
     let running = AtomicUsize::new(0);
     let finished = AtomicUsize::new(done_before);
     let mut results = Vec::with_capacity(pending.len());
     for phase in pending.chunk_by(|a, b| a.work.phase() == b.work.phase()) {
+        let phase_clock = Instant::now();
         results.extend(pool.install(|| {
             phase
                 .par_iter()
@@ -211,16 +217,18 @@ fn run_pending(
                         "{now} running, last started {}",
                         job.folder.display()
                     ));
+                    let started = unix_seconds();
                     let clock = Instant::now();
                     let result = wait_for_needs(job, out, options.shard.is_some())
                         .and_then(|()| run_job(job, out));
+                    let seconds = clock.elapsed().as_secs_f64();
                     running.fetch_sub(1, Ordering::SeqCst);
+                    timings.record(job, started, seconds, result.is_ok());
                     let k = finished.fetch_add(1, Ordering::SeqCst) + 1;
                     let line = match &result {
                         Ok(what) => format!(
-                            "[{k}/{total}] {}: {what} ({:.1} s)",
-                            job.folder.display(),
-                            clock.elapsed().as_secs_f64()
+                            "[{k}/{total}] {}: {what} ({seconds:.1} s)",
+                            job.folder.display()
                         ),
                         Err(e) => format!("[{k}/{total}] {}: failed: {e}", job.folder.display()),
                     };
@@ -230,9 +238,100 @@ fn run_pending(
                 })
                 .collect::<Vec<_>>()
         }));
+        if let Some(first) = phase.first() {
+            let line = format!(
+                "phase {}: {} job{} in {} on {} thread{}",
+                first.work.phase_name(),
+                phase.len(),
+                if phase.len() == 1 { "" } else { "s" },
+                duration(phase_clock.elapsed().as_secs_f64()),
+                options.threads.max(1),
+                if options.threads.max(1) == 1 { "" } else { "s" }
+            );
+            bar.suspend(|| eprintln!("{line}"));
+        }
     }
     bar.finish_and_clear();
     Ok(results)
+}
+
+/// `DIR/timings.csv`: one line per job run, appended as it ends (`job, kind, phase,
+/// started_unix, wall_s, status`), so that the time of a study stopped and rerun, phase by
+/// phase, is still known. A line that cannot be written is only warned about: timing is
+/// not worth a job.
+struct Timings {
+    path: PathBuf,
+    file: Mutex<Option<std::fs::File>>,
+}
+
+impl Timings {
+    const HEADER: &'static str = "job,kind,phase,started_unix,wall_s,status\n";
+
+    fn open(out: &Path) -> Result<Timings, StudyError> {
+        let path = out.join("timings.csv");
+        let fresh = !path.exists();
+        let mut file = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(&path)
+            .map_err(io_err(&path))?;
+        if fresh {
+            file.write_all(Self::HEADER.as_bytes())
+                .map_err(io_err(&path))?;
+        }
+        Ok(Timings {
+            path,
+            file: Mutex::new(Some(file)),
+        })
+    }
+
+    fn record(&self, job: &Job, started_unix: f64, wall_s: f64, ok: bool) {
+        let fields = [
+            job.folder.display().to_string(),
+            job.work.kind().to_string(),
+            job.work.phase_name().to_string(),
+            format!("{started_unix:.0}"),
+            format!("{wall_s:.3}"),
+            (if ok { "complete" } else { "failed" }).to_string(),
+        ];
+        let mut row = csv_writer(Vec::new());
+        if row.write_record(&fields).is_err() {
+            return;
+        }
+        let Ok(line) = row.into_inner() else {
+            return;
+        };
+        let Ok(mut guard) = self.file.lock() else {
+            return;
+        };
+        if let Some(file) = guard.as_mut() {
+            if let Err(e) = file.write_all(&line) {
+                eprintln!(
+                    "warning: {}: {e}; no more timings written",
+                    self.path.display()
+                );
+                *guard = None;
+            }
+        }
+    }
+}
+
+/// Seconds since the Unix epoch (0 on a clock before it).
+fn unix_seconds() -> f64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0.0, |d| d.as_secs_f64())
+}
+
+/// `95 s`, `12.5 min`, `1.3 h`.
+fn duration(seconds: f64) -> String {
+    if seconds < 120.0 {
+        format!("{seconds:.0} s")
+    } else if seconds < 7200.0 {
+        format!("{:.1} min", seconds / 60.0)
+    } else {
+        format!("{:.1} h", seconds / 3600.0)
+    }
 }
 
 /// Runs one job into its folder; says what it gave.
