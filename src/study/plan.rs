@@ -790,6 +790,23 @@ mod tests {
     }
 
     #[test]
+    fn every_shipped_study_file_plans() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/studies");
+        let mut files: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+            .collect();
+        files.sort();
+        assert!(files.len() >= 7, "{files:?}");
+        for file in files {
+            let jobs = plan(&file, Path::new("/tmp/ghm-plan-only"))
+                .unwrap_or_else(|e| panic!("{}: {e}", file.display()));
+            assert!(!jobs.is_empty(), "{}", file.display());
+        }
+    }
+
+    #[test]
     fn slugs_are_folder_names() {
         assert_eq!(slug("RL-MPC (sac)"), "rl-mpc-sac");
         assert_eq!(slug("MPC"), "mpc");

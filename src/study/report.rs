@@ -40,12 +40,16 @@ pub struct JobRow {
     pub cumulative_reward: f64,
     /// Failed solves over the season.
     pub failed_solves: u64,
+    /// Steps whose input came from a fallback (a retry or a stand-in input).
+    pub fallbacks: u64,
     /// Median solve time, ms.
     pub median_ms: f64,
     /// 95th percentile of the solve times, ms.
     pub p95_ms: f64,
     /// Largest solve time, ms.
     pub max_ms: f64,
+    /// Solver iterations per step, on average (0 without a solver).
+    pub mean_iterations: f64,
     /// The unit of money.
     pub unit: String,
     /// The job's folder, relative to its study folder.
@@ -99,9 +103,11 @@ pub fn gather(dirs: &[PathBuf]) -> Result<Vec<JobRow>, StudyError> {
                 total_penalty: number(&m["total_penalty"]),
                 cumulative_reward: number(&m["cumulative_reward"]),
                 failed_solves: m["solve"]["failed_solves"].as_u64().unwrap_or(0),
+                fallbacks: m["solve"]["fallbacks"].as_u64().unwrap_or(0),
                 median_ms: number(&m["solve"]["median_ms"]),
                 p95_ms: number(&m["solve"]["p95_ms"]),
                 max_ms: number(&m["solve"]["max_ms"]),
+                mean_iterations: number(&m["solve"]["mean_iterations"]),
                 unit: summary["unit"].as_str().unwrap_or_default().to_string(),
                 folder: text("folder"),
                 plan_index,
@@ -273,9 +279,11 @@ pub fn write_results(out: &Path, rows: &[JobRow]) -> Result<(), StudyError> {
         "total_penalty",
         "cumulative_reward",
         "failed_solves",
+        "fallbacks",
         "median_ms",
         "p95_ms",
         "max_ms",
+        "mean_iterations",
         "folder",
     ];
     let records = rows.iter().map(|r| {
@@ -291,9 +299,11 @@ pub fn write_results(out: &Path, rows: &[JobRow]) -> Result<(), StudyError> {
             number(r.total_penalty),
             number(r.cumulative_reward),
             r.failed_solves.to_string(),
+            r.fallbacks.to_string(),
             number(r.median_ms),
             number(r.p95_ms),
             number(r.max_ms),
+            number(r.mean_iterations),
             r.folder.clone(),
         ]
     });
@@ -486,9 +496,11 @@ mod tests {
             total_penalty: 1.0,
             cumulative_reward: reward,
             failed_solves: 1,
+            fallbacks: 1,
             median_ms: 2.0,
             p95_ms: 3.0,
             max_ms: 4.0,
+            mean_iterations: 9.0,
             unit: "€".into(),
             folder: String::new(),
             plan_index: 0,
