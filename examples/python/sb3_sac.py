@@ -8,7 +8,8 @@ its roll-outs, and RL-guided MPC with it.
     pip install stable-baselines3 torch       # not needed by ghm itself, nor by its tests
     python3 examples/python/sb3_sac.py models/lettuce.ghm --timesteps 200000 --out runs/sb3
 
-Not run by CI (torch is large); see docs/results.md for a run's figures when one is made.
+Not run by CI (torch is large); docs/results.md, "An agent trained in Python", has the
+figures of a 192 000-step run.
 """
 
 import argparse
