@@ -269,16 +269,23 @@ impl Timings {
 
     fn open(out: &Path) -> Result<Timings, StudyError> {
         let path = out.join("timings.csv");
-        let fresh = !path.exists();
-        let mut file = std::fs::OpenOptions::new()
-            .create(true)
+        // Only the run that creates the file writes the header: shards of one Slurm array
+        // start together in the same folder.
+        match std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&path)
+        {
+            Ok(mut created) => created
+                .write_all(Self::HEADER.as_bytes())
+                .map_err(io_err(&path))?,
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
+            Err(e) => return Err(io_err(&path)(e).into()),
+        }
+        let file = std::fs::OpenOptions::new()
             .append(true)
             .open(&path)
             .map_err(io_err(&path))?;
-        if fresh {
-            file.write_all(Self::HEADER.as_bytes())
-                .map_err(io_err(&path))?;
-        }
         Ok(Timings {
             path,
             file: Mutex::new(Some(file)),

@@ -86,6 +86,9 @@ grep -q "19 jobs: 0 run now, 19 done before" "$work/rerun.out" || fail "jobs lef
 "$ghm" study examples/studies/tiny.toml --out "$work/local" >/dev/null 2>&1
 figures() { cut -d, -f1-5,8-11 "$1/results.csv"; }
 diff <(figures "$out") <(figures "$work/local") || fail "the array's figures differ from one local run"
+# Both tasks appended their jobs' times to one timings.csv under one header.
+[ "$(grep -c '^job,kind,phase' "$out/timings.csv")" = 1 ] || fail "timings.csv: $(head -3 "$out/timings.csv")"
+[ "$(tail -n +2 "$out/timings.csv" | wc -l)" = 19 ] || fail "timings.csv has not one line per job: $(cat "$out/timings.csv")"
 "$ghm" report "$out" --out "$work/report" >/dev/null
 [ -s "$work/report/lettuce.png" ] || fail "no report"
 echo "slurm test: a 2-task array ran the tiny study's 19 jobs, the same figures as one local run"
