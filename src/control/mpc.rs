@@ -7,10 +7,10 @@
 //! much longer), SQP from the shifted primal point and multipliers
 //! ([`WarmStart::PrimalDual`]). Its status is checked every step. A primal-dual warm solve
 //! is capped at [`Mpc::warm_iteration_limit`] iterations (the solver's
-//! [`Solver::warm_iteration_budget`]: 15 for SQP, 40 for the interior-point method): from a
-//! shifted solution SQP needs two or three, and one that needs many more is usually stuck on
-//! a flat stretch of the economic cost, where a cold start is the better use of time. When
-//! it fails, the controller falls back, in this order:
+//! [`Solver::warm_iteration_budget`]: 15 for SQP, 40 for the interior-point method and
+//! IPOPT): from a shifted solution SQP needs two or three, and one that needs many more is
+//! usually stuck on a flat stretch of the economic cost, where a cold start is the better
+//! use of time. When it fails, the controller falls back, in this order:
 //!
 //! 1. `cold_start`: solve again from the held previous input, simulated (under guidance,
 //!    first from a fresh roll-out of the guide, its terminal region re-centred on it);

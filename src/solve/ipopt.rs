@@ -153,6 +153,15 @@ impl Solver for Ipopt {
         self.iteration_limit = limit;
     }
 
+    /// 40, like the interior point's: from `mu_init = 1e-4` IPOPT's monotone barrier needs
+    /// 15–30 iterations to its tolerance. With SQP's 15 the warm solve ran out on 1639 of
+    /// the paper season's 1920 steps at 6 h, each then re-solved cold (12 failed solves,
+    /// median 63 ms, worst 2.1 s); with 40: 9 cold re-solves, no failure, median 29 ms,
+    /// worst 154 ms (`docs/benchmarks.md`).
+    fn warm_iteration_budget(&self) -> usize {
+        40
+    }
+
     fn solve(&mut self, nlp: &mut dyn Nlp, start: Start<'_>) -> Solution {
         let time = Instant::now();
         let (n, m) = (nlp.n_vars(), nlp.n_cons());
