@@ -21,8 +21,10 @@
 //!     ../shared/data/venlo2014_30min_model_units.csv 1394 40 6h sqp ipm
 //! ```
 //!
-//! Arguments: model, weather CSV, start row, days, horizon, driver, shadow (`ipm` or `sqp`).
+//! Arguments: model, weather CSV, start row, days, horizon, driver, shadow (`ipm`, `sqp`,
+//! or `ipopt` in a build with `--features ipopt`).
 
+use clap::ValueEnum;
 use ghm::control::{ControlError, Controller, Decision, Mpc, Observation};
 use ghm::job::build::{make_mpc, parse_horizon};
 use ghm::job::{SolverChoice, WeatherSpec};
@@ -75,12 +77,10 @@ impl Controller for Referee {
     }
 }
 
+/// The back-end named as on `ghm mpc --solver` (`ipopt` needs a build with `--features ipopt`).
 fn solver(name: &str) -> Result<SolverChoice, String> {
-    match name {
-        "ipm" => Ok(SolverChoice::Ipm),
-        "sqp" => Ok(SolverChoice::Sqp),
-        other => Err(format!("unknown back-end {other:?}: expected ipm or sqp")),
-    }
+    SolverChoice::from_str(name, false)
+        .map_err(|_| format!("unknown back-end {name:?}: expected ipm, sqp or ipopt"))
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -88,7 +88,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let [model, weather, start_row, days, horizon, driver, shadow] = args.as_slice() else {
         return Err(
             "usage: solver_agreement MODEL WEATHER.csv START_ROW DAYS HORIZON \
-                    DRIVER SHADOW   (back-ends: ipm, sqp)"
+                    DRIVER SHADOW   (back-ends: ipm, sqp, ipopt)"
                 .into(),
         );
     };

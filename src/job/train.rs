@@ -250,9 +250,10 @@ pub fn train(
         last = Some(record.reward);
         let line = describe(&record, &unit);
         if verbose {
-            match bar.is_hidden() {
-                true => println!("{line}"),
-                false => bar.println(line),
+            if bar.is_hidden() {
+                println!("{line}");
+            } else {
+                bar.println(line);
             }
         }
         write_curve(dir, trainer.curve())?;

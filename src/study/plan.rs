@@ -121,6 +121,9 @@ pub enum Work {
     Value(ValueSpec),
 }
 
+/// The phases' names, in the order they run ([`Work::phase`] indexes them).
+const PHASE_NAMES: [&str; 3] = ["trainings", "value fits", "seasons"];
+
 impl Work {
     /// The job's kind in `study.json`.
     pub fn kind(&self) -> &'static str {
@@ -133,11 +136,7 @@ impl Work {
 
     /// The phase's name, as the study's log and `timings.csv` say it.
     pub fn phase_name(&self) -> &'static str {
-        match self {
-            Work::Train(_) => "trainings",
-            Work::Value(_) => "value fits",
-            Work::Season(_) => "seasons",
-        }
+        PHASE_NAMES[self.phase()]
     }
 
     /// The phase it runs in: a job reads only jobs of earlier phases.
