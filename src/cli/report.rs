@@ -9,6 +9,8 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, Args)]
 pub struct ReportArgs {
     /// Study folders (the --out of `ghm study`): runs or shards of one study, or several.
+    /// A season found in several folders (the same study run again, to time it) is reported
+    /// once, its solve times the median over the runs.
     #[arg(required = true, value_name = "DIR")]
     pub dirs: Vec<PathBuf>,
     /// Where the report goes: report.md, results.csv, and per model a CSV table and a PNG
