@@ -4,7 +4,7 @@
 //! table with the horizons as columns — each controller's cumulative reward and EPI on the
 //! nominal plant with the gap to the optimum — one of the stochastic scenarios (mean and
 //! min–max range), and one of the solve times. Failed solves are named in the cell where
-//! they happened.
+//! they happened, and counted per controller (zeros included) under the tables.
 //!
 //! `ghm report --into FILE` puts the report into a document between two markers,
 //! `<!-- begin ghm report NAME -->` and `<!-- end ghm report NAME -->` (`NAME`: the
@@ -134,7 +134,33 @@ pub(super) fn model_section(model: &str, lines: &[TableLine], images: &str) -> S
             c,
         ));
     }
+    md.push_str(&failed_per_controller(lines, &controllers));
     md
+}
+
+/// One line that counts each controller's failed solves over all its seasons (every
+/// horizon and scenario), zeros included: the tables name only the cells that had one.
+fn failed_per_controller(lines: &[TableLine], controllers: &[String]) -> String {
+    let counts: Vec<String> = controllers
+        .iter()
+        .map(|c| {
+            let (failed, seasons) = lines
+                .iter()
+                .filter(|l| &l.controller == c && !l.horizon.is_empty())
+                .fold((0, 0), |(f, s), l| {
+                    (
+                        f + l.failed_solves,
+                        s + usize::from(l.nominal.is_some()) + l.stochastic.len(),
+                    )
+                });
+            let plural = if seasons == 1 { "" } else { "s" };
+            format!("{c} {failed} ({seasons} season{plural})")
+        })
+        .collect();
+    format!(
+        "\nFailed solves per controller, over all its seasons: {}.\n",
+        counts.join(", ")
+    )
 }
 
 /// `mean [min, max]` of one figure over a line's stochastic seasons.
@@ -230,6 +256,29 @@ mod tests {
             "{md}"
         );
         assert!(md.contains("| MPC | 1.00 / 2.0 | 1.00 / 2.0 |"), "{md}");
+    }
+
+    #[test]
+    fn failed_solves_are_counted_per_controller_zeros_included() {
+        let mut mpc = line("MPC", "1h", Some(1.0), 3.75);
+        mpc.failed_solves = 2;
+        mpc.stochastic = vec![(4.0, 3.5), (4.1, 3.6)];
+        let mut mpc6 = line("MPC", "6h", Some(6.0), 4.0);
+        mpc6.failed_solves = 1;
+        let lines = vec![
+            line("SAC", "", None, 4.25),
+            mpc,
+            mpc6,
+            line("RL-MPC", "1h", Some(1.0), 4.0),
+        ];
+        let md = model_section("lettuce", &lines, "");
+        assert!(
+            md.contains(
+                "Failed solves per controller, over all its seasons: MPC 3 (4 seasons), \
+                 RL-MPC 0 (1 season)."
+            ),
+            "{md}"
+        );
     }
 
     #[test]
