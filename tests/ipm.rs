@@ -3,7 +3,7 @@
 //! network) solved as it is, and every status it can end with, each on a problem built to
 //! end that way.
 
-use ghm::control::Mpc;
+use ghm::control::{Mpc, ValueFile, ValueTerminalCost};
 use ghm::model::Plant;
 use ghm::nlp::{Nlp, Ocp, Pattern, Stages, TerminalCost};
 use ghm::sim::metrics::Metrics;
@@ -406,6 +406,51 @@ fn a_terminal_cost_set_between_solves_is_seen() {
     // same point, but by other steps.
     assert_eq!(again.stats.iterations, fresh.stats.iterations);
     assert_eq!(again.x, fresh.x);
+}
+
+/// One step of the paper study, kept whole in `tests/fixtures/blocked-step.json`: the
+/// lettuce plant at 6 h with the stochastic agent's value network as its terminal cost,
+/// restarted from the shifted plan. The linearised constraints ask a rate-limited input to
+/// move six times its range; the rate rows cut every step short, and the filter accepted
+/// such steps on the objective while the violation crept up, for 125 iterations (152 in
+/// all). A run of them must end in the problem's own restoration, and the solve soon
+/// after.
+#[test]
+fn a_run_of_blocked_steps_ends_in_a_restoration() {
+    let text = std::fs::read_to_string("tests/fixtures/blocked-step.json").unwrap();
+    let fixture: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let floats = |key: &str| -> Vec<f64> {
+        let values = fixture[key].as_array().unwrap();
+        values.iter().map(|v| v.as_f64().unwrap()).collect()
+    };
+    let step = fixture["step"].as_u64().unwrap() as usize;
+    let mut ocp = Ocp::new(plant("models/lettuce.ghm"), 12).unwrap();
+    ocp.set_problem(
+        step,
+        &floats("state"),
+        &floats("previous_input"),
+        &floats("forecast"),
+    )
+    .unwrap();
+    let value =
+        ValueFile::load(Path::new("models/agents/lettuce/stochastic/value-sac.json")).unwrap();
+    ocp.set_terminal_cost(Some(Box::new(ValueTerminalCost::new(value))));
+    let mut ipm = Ipm::default();
+    let solution = ipm.solve(&mut ocp, Start::shifted(&floats("start")));
+    assert_eq!(solution.status, SolveStatus::Optimal);
+    assert!(ipm.restorations() > 0);
+    assert!(
+        solution.stats.iterations <= 40,
+        "{} iterations",
+        solution.stats.iterations
+    );
+    let kkt = kkt_residuals(
+        &mut ocp,
+        &solution.x,
+        &solution.multipliers,
+        &solution.bound_multipliers,
+    );
+    assert!(kkt.max() < 1e-6, "{kkt:?}");
 }
 
 /// The KKT residuals on a problem solved by hand: one step of the chain toward 3, whose
