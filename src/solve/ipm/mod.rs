@@ -150,21 +150,26 @@ const BLOCKED_STEPS_BEFORE_RESTORATION: usize = 5;
 /// constraints asked a rate-limited input to move six times its range, its two rate rows
 /// cut every step to `α ≈ 4e-3`, and 125 such steps raised the violation from 2.5e-3 to
 /// 8.3e-3 on objective gains of 1e-9; the second-order correction never ran, because no
-/// trial was rejected. Re-simulating the states after five of them ended that solve in 33
-/// iterations instead of 152; nine other seasons were unchanged to nine digits.
+/// trial was rejected. Re-simulating the states after five of them ended that solve in 29
+/// iterations instead of 152. Once a solve: where the blocked run comes back after the
+/// restoration, restoring again only starts the run over (a step of the same study, 5 h,
+/// cycled 14 times, 92 iterations against 26 without the rule); left to the filter it
+/// ends in 36. Over the study's 1116 MPC-type seasons, rewards moved by at most 1e-8.
 #[derive(Debug, Default)]
 struct BlockedSteps {
     run: usize,
+    restored: bool,
 }
 
 impl BlockedSteps {
     /// Records one accepted step, `blocked` if it was cut short and raised the violation;
-    /// true when the run is long enough to restore (the run then starts again).
+    /// true when the run is long enough to restore, once a solve.
     fn restoration_due(&mut self, blocked: bool) -> bool {
         self.run = if blocked { self.run + 1 } else { 0 };
-        let due = self.run >= BLOCKED_STEPS_BEFORE_RESTORATION;
+        let due = self.run >= BLOCKED_STEPS_BEFORE_RESTORATION && !self.restored;
         if due {
             self.run = 0;
+            self.restored = true;
         }
         due
     }
@@ -1748,14 +1753,16 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_run_of_blocked_steps_calls_for_one_restoration_and_starts_again() {
+    fn a_run_of_blocked_steps_calls_for_one_restoration_a_solve() {
         let mut blocked = BlockedSteps::default();
         for _ in 1..BLOCKED_STEPS_BEFORE_RESTORATION {
             assert!(!blocked.restoration_due(true));
         }
         assert!(blocked.restoration_due(true));
-        // The run starts again after the restoration it called for.
-        assert!(!blocked.restoration_due(true));
+        // One restoration a solve: a run that comes back after it is left to the filter.
+        for _ in 0..3 * BLOCKED_STEPS_BEFORE_RESTORATION {
+            assert!(!blocked.restoration_due(true));
+        }
     }
 
     #[test]
