@@ -12,7 +12,6 @@
 use crate::control::ControlError;
 use crate::nlp::{LinearTerminalCost, TerminalCost};
 use crate::nn::ScaledMlp;
-use num_dual::second_derivative;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -105,11 +104,7 @@ impl ValueFile {
 
     /// `(−V, −∂V/∂x_i, −∂²V/∂x_i²)` at `(x_i, k)`.
     fn negative_with_derivatives(&self, x_i: f64, step: usize) -> (f64, f64, f64) {
-        let k = step as f64;
-        let (v, dv, d2v) = second_derivative(
-            |x| self.function.evaluate(&[x, num_dual::DualNum::from_re(k)]),
-            x_i,
-        );
+        let (v, dv, d2v) = self.function.evaluate_second(&[x_i, step as f64], 0);
         (-v, -dv, -d2v)
     }
 }

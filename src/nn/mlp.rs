@@ -281,6 +281,48 @@ impl Mlp {
         current
     }
 
+    /// The first output and its first and second derivatives along the input direction
+    /// `tangent` (`∂input/∂s`; the input's second derivative is zero), in one pass over
+    /// three plain vectors per layer: value, first and second derivative. The figures of
+    /// [`Mlp::forward`] over `Dual2` to rounding, at a fraction of its cost: `tanh` once
+    /// per unit with its derivatives written out (`Dual2`'s is `sinh / cosh` of dual
+    /// numbers), and dot products over contiguous `f64` rows in four running sums.
+    pub fn forward_second_along(&self, input: &[f64], tangent: &[f64]) -> (f64, f64, f64) {
+        let n = self.inputs();
+        let mut value = input[..n].to_vec();
+        let mut first = tangent[..n].to_vec();
+        let mut second = vec![0.0; n];
+        let last = self.layers.len() - 1;
+        for (l, layer) in self.layers.iter().enumerate() {
+            let activation = if l == last { self.output } else { self.hidden };
+            let mut next = (
+                Vec::with_capacity(layer.outputs),
+                Vec::with_capacity(layer.outputs),
+                Vec::with_capacity(layer.outputs),
+            );
+            for o in 0..layer.outputs {
+                let row = &layer.weight[o * layer.inputs..(o + 1) * layer.inputs];
+                let z = layer.bias[o] + dot(row, &value);
+                let (z1, z2) = (dot(row, &first), dot(row, &second));
+                let (a, a1, a2) = match activation {
+                    Activation::Identity => (z, z1, z2),
+                    Activation::Relu if z > 0.0 => (z, z1, z2),
+                    Activation::Relu => (0.0, 0.0, 0.0),
+                    Activation::Tanh => {
+                        let t = z.tanh();
+                        let slope = 1.0 - t * t;
+                        (t, slope * z1, slope * (z2 - 2.0 * t * z1 * z1))
+                    }
+                };
+                next.0.push(a);
+                next.1.push(a1);
+                next.2.push(a2);
+            }
+            (value, first, second) = next;
+        }
+        (value[0], first[0], second[0])
+    }
+
     /// [`Mlp::forward`] with the input width checked.
     pub fn try_forward<T: Real>(&self, input: &[T]) -> Result<Vec<T>, NnError> {
         if input.len() != self.inputs() {
@@ -385,6 +427,20 @@ impl Mlp {
     }
 }
 
+/// `Σ a_i b_i` in four running sums, which the compiler can keep in vector registers.
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let mut sums = [0.0; 4];
+    let (a4, a_rest) = a.split_at(a.len() / 4 * 4);
+    let (b4, b_rest) = b.split_at(a4.len());
+    for (x, y) in a4.chunks_exact(4).zip(b4.chunks_exact(4)) {
+        for k in 0..4 {
+            sums[k] += x[k] * y[k];
+        }
+    }
+    let tail: f64 = a_rest.iter().zip(b_rest).map(|(x, y)| x * y).sum();
+    (sums[0] + sums[1]) + (sums[2] + sums[3]) + tail
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -439,6 +495,33 @@ mod tests {
             small().try_forward(&[1.0]),
             Err(NnError::InputWidth { .. })
         ));
+    }
+
+    #[test]
+    fn the_second_order_pass_matches_dual_numbers() {
+        use num_dual::second_derivative;
+        let mut net = small();
+        for hidden in [Activation::Tanh, Activation::Relu, Activation::Identity] {
+            net.hidden = hidden;
+            for (x, direction) in [([0.4, -0.2], [1.0, 0.0]), ([-1.3, 2.1], [0.3, -2.0])] {
+                let (v, d, d2) = net.forward_second_along(&x, &direction);
+                let (rv, rd, rd2) = second_derivative(
+                    |s| {
+                        let input = [s * direction[0] + x[0], s * direction[1] + x[1]];
+                        net.forward(&input)[0]
+                    },
+                    0.0,
+                );
+                for (a, b) in [(v, rv), (d, rd), (d2, rd2)] {
+                    assert!(
+                        (a - b).abs() <= 1e-13 * (1.0 + b.abs()),
+                        "{hidden:?} at {x:?}: {a} vs {b}"
+                    );
+                }
+                // Not all zero: the test compares something.
+                assert!(d != 0.0 || hidden == Activation::Relu);
+            }
+        }
     }
 
     #[test]

@@ -108,6 +108,20 @@ impl ScaledMlp {
         let z = self.normalise(raw);
         self.net.forward(&z)[0] * self.output_scale + self.output_offset
     }
+
+    /// The first output at `raw` with its first and second derivatives with respect to
+    /// raw input `i`, by [`Mlp::forward_second_along`].
+    pub fn evaluate_second(&self, raw: &[f64], i: usize) -> (f64, f64, f64) {
+        let z = self.normalise(raw);
+        let mut tangent = vec![0.0; z.len()];
+        tangent[i] = 2.0 * INPUT_HALF_RANGE / (self.input_upper[i] - self.input_lower[i]);
+        let (v, d, d2) = self.net.forward_second_along(&z, &tangent);
+        (
+            v * self.output_scale + self.output_offset,
+            d * self.output_scale,
+            d2 * self.output_scale,
+        )
+    }
 }
 
 /// `z = 10 (v − lower)/(upper − lower) − 5`, component-wise: the input map of
@@ -144,5 +158,45 @@ pub fn check_box(lower: &[f64], upper: &[f64], width: usize) -> Result<(), NnErr
             ),
         }),
         None => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::nn::{Activation, Dense};
+    use num_dual::{second_derivative, DualNum};
+
+    #[test]
+    fn the_second_order_pass_takes_the_input_map_into_account() {
+        let layer = Dense {
+            inputs: 2,
+            outputs: 2,
+            weight: vec![0.7, -0.4, 0.2, 0.9],
+            bias: vec![0.1, -0.3],
+        };
+        let out = Dense {
+            inputs: 2,
+            outputs: 1,
+            weight: vec![1.5, -0.8],
+            bias: vec![0.05],
+        };
+        let net = Mlp::new(vec![layer, out], Activation::Tanh, Activation::Identity).unwrap();
+        let v = ScaledMlp::new(net, vec![0.0, 0.0], vec![0.5, 1920.0], 1.9, 1.3).unwrap();
+        for (raw, i) in [([0.1, 300.0], 0), ([0.45, 1700.0], 1)] {
+            let (f, d, d2) = v.evaluate_second(&raw, i);
+            let (rf, rd, rd2) = second_derivative(
+                |s| {
+                    let mut input = [DualNum::from_re(raw[0]), DualNum::from_re(raw[1])];
+                    input[i] = s;
+                    v.evaluate(&input)
+                },
+                raw[i],
+            );
+            for (a, b) in [(f, rf), (d, rd), (d2, rd2)] {
+                assert!((a - b).abs() <= 1e-12 * (1.0 + b.abs()), "{a} vs {b}");
+            }
+            assert!(d != 0.0 && d2 != 0.0);
+        }
     }
 }
