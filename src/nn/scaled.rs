@@ -114,7 +114,7 @@ impl ScaledMlp {
     pub fn evaluate_second(&self, raw: &[f64], i: usize) -> (f64, f64, f64) {
         let z = self.normalise(raw);
         let mut tangent = vec![0.0; z.len()];
-        tangent[i] = 2.0 * INPUT_HALF_RANGE / (self.input_upper[i] - self.input_lower[i]);
+        tangent[i] = box_gain(self.input_lower[i], self.input_upper[i]);
         let (v, d, d2) = self.net.forward_second_along(&z, &tangent);
         (
             v * self.output_scale + self.output_offset,
@@ -129,10 +129,13 @@ impl ScaledMlp {
 pub fn normalise_into_box<T: Real>(raw: &[T], lower: &[f64], upper: &[f64]) -> Vec<T> {
     raw.iter()
         .zip(lower.iter().zip(upper))
-        .map(|(v, (l, u))| {
-            (*v - *l) * (2.0 * INPUT_HALF_RANGE / (u - l)) - T::from(INPUT_HALF_RANGE)
-        })
+        .map(|(v, (l, u))| (*v - *l) * box_gain(*l, *u) - T::from(INPUT_HALF_RANGE))
         .collect()
+}
+
+/// `∂z/∂v` of the input map: `10 / (upper − lower)`.
+fn box_gain(lower: f64, upper: f64) -> f64 {
+    2.0 * INPUT_HALF_RANGE / (upper - lower)
 }
 
 /// Checks an input box for `width` inputs: the right length, finite, `upper > lower`.
