@@ -84,6 +84,52 @@ fn warm_started_bioreactor_mpc_solves_every_step() {
     assert_ipm_follows_sqp("models/bioreactor.ghm", 12, 24, 1e-3);
 }
 
+/// A day of lettuce MPC over 3 h on the built-in season with the interior point, `options`
+/// as given: its solve figures.
+fn lettuce_day(options: IpmOptions) -> ghm::sim::metrics::SolveStats {
+    let plant = plant("models/lettuce.ghm");
+    let (steps, horizon) = (48, 6);
+    let columns = plant.model.weather_columns();
+    let weather =
+        ghm::sim::weather::builtin_season(steps + horizon, plant.model.sample_period, 2014)
+            .select(&columns, 0, steps + horizon)
+            .expect("built-in weather has the model's columns");
+    let mut mpc = Mpc::new(plant.clone(), horizon, Box::new(Ipm::new(options))).unwrap();
+    let config = SeasonConfig {
+        steps,
+        enforce_limits: true,
+        uncertainty: None,
+    };
+    let mut sink = |_: &StepLog| {};
+    run_season(&plant, &weather, &mut mpc, &config, &mut sink)
+        .unwrap()
+        .metrics
+        .solve
+}
+
+/// The lettuce plant's soft bands are slacks `s ≥ 0` in objective units, zero at the
+/// optimum while a band holds. A shifted restart pushes them only
+/// `shifted_slack_push` (1e-5) above zero: pushed as far as the boxed variables (1e-2,
+/// ten stage rewards of penalty each), the first step is cut to a tenth by the slacks'
+/// fraction to the boundary, and the day's steps take more iterations.
+#[test]
+fn shifted_restarts_start_the_soft_slacks_near_zero() {
+    let near = lettuce_day(IpmOptions::default());
+    let far = lettuce_day(IpmOptions {
+        shifted_slack_push: IpmOptions::default().shifted_push,
+        ..IpmOptions::default()
+    });
+    for stats in [&near, &far] {
+        assert_eq!((stats.failed_solves, stats.fallbacks), (0, 0), "{stats:?}");
+    }
+    assert!(
+        near.mean_iterations + 1.0 <= far.mean_iterations,
+        "{} vs {} iterations a step",
+        near.mean_iterations,
+        far.mean_iterations
+    );
+}
+
 /// `T(x) = w_a (Ca − 0.5)² − w_t (T − 350)²`: a saddle, the kind of indefinite terminal
 /// Hessian a value network has.
 #[derive(Debug)]
@@ -410,9 +456,13 @@ fn a_terminal_cost_set_between_solves_is_seen() {
 
 /// One MPC step of the paper study kept whole in `tests/fixtures/<name>.json` (the lettuce
 /// plant over `horizon` stages, the stochastic agent's value network as its terminal cost),
-/// solved by the interior point from the shifted plan the controller started from: optimal,
-/// KKT residual below 1e-6, after exactly one restoration and in at most 40 iterations.
-fn assert_study_step_solved_after_one_restoration(name: &str, horizon: usize) {
+/// solved by the interior point with `options` from the shifted plan the controller started
+/// from (without its multipliers): the solution, and the restorations it took.
+fn solve_study_step(
+    name: &str,
+    horizon: usize,
+    options: IpmOptions,
+) -> (ghm::solve::Solution, usize, ghm::solve::KktResiduals) {
     let text = std::fs::read_to_string(format!("tests/fixtures/{name}.json")).unwrap();
     let fixture: serde_json::Value = serde_json::from_str(&text).unwrap();
     let floats = |key: &str| -> Vec<f64> {
@@ -431,19 +481,50 @@ fn assert_study_step_solved_after_one_restoration(name: &str, horizon: usize) {
     let value =
         ValueFile::load(Path::new("models/agents/lettuce/stochastic/value-sac.json")).unwrap();
     ocp.set_terminal_cost(Some(Box::new(ValueTerminalCost::new(value))));
-    let mut ipm = Ipm::default();
+    let mut ipm = Ipm::new(options);
     let solution = ipm.solve(&mut ocp, Start::shifted(&floats("start")));
-    assert_eq!(solution.status, SolveStatus::Optimal);
     let kkt = kkt_residuals(
         &mut ocp,
         &solution.x,
         &solution.multipliers,
         &solution.bound_multipliers,
     );
+    (solution, ipm.restorations(), kkt)
+}
+
+/// [`solve_study_step`] with the options the study ran with when the step was kept: the
+/// soft slacks pushed as far as the boxed variables (`shifted_slack_push` = 1e-2), as the
+/// blocked run needs. Optimal, KKT residual below 1e-6, after exactly one restoration and
+/// in at most 40 iterations.
+fn assert_study_step_solved_after_one_restoration(name: &str, horizon: usize) {
+    let options = IpmOptions {
+        shifted_slack_push: 1e-2,
+        ..IpmOptions::default()
+    };
+    let (solution, restorations, kkt) = solve_study_step(name, horizon, options);
+    assert_eq!(solution.status, SolveStatus::Optimal);
     assert!(kkt.max() < 1e-6, "{kkt:?}");
-    assert_eq!(ipm.restorations(), 1);
+    assert_eq!(restorations, 1);
     let iterations = solution.stats.iterations;
     assert!(iterations <= 40, "{iterations} iterations");
+}
+
+/// The same two steps with the default options, the soft slacks started near zero: no
+/// blocked run to restore from, and each solved in at most 30 iterations (25 and 15).
+#[test]
+fn the_study_steps_need_no_restoration_from_slacks_near_zero() {
+    for (name, horizon) in [("blocked-step", 12), ("blocked-step-again", 10)] {
+        let (solution, restorations, kkt) = solve_study_step(name, horizon, IpmOptions::default());
+        assert!(
+            solution.status.is_success(),
+            "{name}: {:?}",
+            solution.status
+        );
+        assert!(kkt.max() < 1e-6, "{name}: {kkt:?}");
+        assert_eq!(restorations, 0, "{name}");
+        let iterations = solution.stats.iterations;
+        assert!(iterations <= 30, "{name}: {iterations} iterations");
+    }
 }
 
 /// The paper study's longest step (RL-MPC-VFO at 6 h, perturbed season 26, step 1372). The

@@ -3,8 +3,8 @@
 //!
 //! The solve starts from the previous solution shifted by one step, as the back-end prefers
 //! ([`Solver::warm_start`], [`Mpc::warm_start`]): the interior point from the shifted primal
-//! point with a fresh barrier ([`WarmStart::Primal`]: about ten iterations every step, none
-//! much longer), SQP from the shifted primal point and multipliers
+//! point and constraint multipliers with a fresh barrier ([`WarmStart::Primal`]: six to ten
+//! iterations every step, none much longer), SQP from the shifted primal point and multipliers
 //! ([`WarmStart::PrimalDual`]). Its status is checked every step. A primal-dual warm solve
 //! is capped at [`Mpc::warm_iteration_limit`] iterations (the solver's
 //! [`Solver::warm_iteration_budget`]: 15 for SQP, 40 for the interior-point method and
@@ -165,14 +165,12 @@ impl Mpc {
         if !primal_ready {
             self.ocp.shift_primal(&last.x, &mut self.start_x);
         }
-        if self.warm_start == WarmStart::Primal {
-            return Some(
-                self.solver
-                    .solve(&mut self.ocp, Start::shifted(&self.start_x)),
-            );
-        }
         self.ocp
             .shift_multipliers(&last.multipliers, &mut self.start_lambda);
+        if self.warm_start == WarmStart::Primal {
+            let start = Start::shifted(&self.start_x).with_multipliers(&self.start_lambda);
+            return Some(self.solver.solve(&mut self.ocp, start));
+        }
         self.ocp
             .shift_bound_multipliers(&last.bound_multipliers, &mut self.start_nu);
         // From a good warm start SQP needs two or three iterations; a warm solve that

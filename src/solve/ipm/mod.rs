@@ -37,7 +37,8 @@
 //!   monotone rule as its safeguard; it begins at [`IpmOptions::initial_mu`] with the
 //!   point pushed [`IpmOptions::bound_push`] inside its bounds, or
 //!   [`IpmOptions::shifted_push`] from an earlier solution ([`Start::shifted`], MPC's
-//!   default restart, [`WarmStart::Primal`]). A warm start (multipliers
+//!   default restart, [`WarmStart::Primal`]; a variable bounded on one side only, a
+//!   soft band's slack, by [`IpmOptions::shifted_slack_push`]). A warm start (multipliers
 //!   given) keeps IPOPT's monotone rule (`μ ← max(ε/10, min(μ/5, μ^1.5))` once the barrier
 //!   problem is solved to `10 μ`) from [`IpmOptions::warm_start_mu`], the point pushed
 //!   [`IpmOptions::warm_push`] inside and the bound multipliers raised to match.
@@ -88,6 +89,14 @@ pub struct IpmOptions {
     /// How far inside its bounds a cold start from an earlier solution, shifted in time
     /// ([`Start::shifted`]), is pushed, relative to the bound's size.
     pub shifted_push: f64,
+    /// The same for a variable bounded on one side only, such as a soft band's slack
+    /// (`s ≥ 0`, in objective units). Measured on the 40-day seasons (6 h, paper and thesis
+    /// variants; RL-guided MPC at 1 h and 6 h): pushed by `shifted_push` = 1e-2 instead, each
+    /// slack starts 1e-2 above an optimum of zero, ten stage rewards' worth of penalty,
+    /// and the first step is cut to `α ≈ 0.1` by the slacks' fraction to the boundary;
+    /// with 1e-5 the median step takes 2–4 iterations fewer (paper MPC 11 → 7, RL-guided
+    /// MPC at 1 h 8 → 6) and no step takes more than before.
+    pub shifted_slack_push: f64,
     /// How far inside its bounds a warm start is pushed, relative to the bound's size.
     pub warm_push: f64,
     /// How the barrier parameter falls.
@@ -124,6 +133,7 @@ impl Default for IpmOptions {
             warm_start_mu: 1e-9,
             bound_push: 1e-1,
             shifted_push: 1e-2,
+            shifted_slack_push: 1e-5,
             warm_push: 1e-7,
             mu_strategy: MuStrategy::Adaptive,
             trace: false,
@@ -745,6 +755,8 @@ impl Ipm {
             let (lo, hi) = (setup.vars.lower[i], setup.vars.upper[i]);
             let k = if warm {
                 kappa * setup.bounds.scale[i].clamp(1e-3, 1.0)
+            } else if start.shifted && !(lo.is_finite() && hi.is_finite()) {
+                opts.shifted_slack_push
             } else {
                 kappa
             };
