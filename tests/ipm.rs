@@ -109,9 +109,10 @@ fn lettuce_day(options: IpmOptions) -> ghm::sim::metrics::SolveStats {
 
 /// The lettuce plant's soft bands are slacks `s ≥ 0` in objective units, zero at the
 /// optimum while a band holds. A shifted restart pushes them only
-/// `shifted_slack_push` (1e-5) above zero: pushed as far as the boxed variables (1e-2,
+/// `shifted_slack_push` (1e-4) above zero: pushed as far as the boxed variables (1e-2,
 /// ten stage rewards of penalty each), the first step is cut to a tenth by the slacks'
-/// fraction to the boundary, and the day's steps take more iterations.
+/// fraction to the boundary, and the day's steps take more iterations (11.1 a step
+/// against 7.1).
 #[test]
 fn shifted_restarts_start_the_soft_slacks_near_zero() {
     let near = lettuce_day(IpmOptions::default());
@@ -510,7 +511,7 @@ fn assert_study_step_solved_after_one_restoration(name: &str, horizon: usize) {
 }
 
 /// The same two steps with the default options, the soft slacks started near zero: no
-/// blocked run to restore from, and each solved in at most 30 iterations (25 and 15).
+/// blocked run to restore from, and each solved in at most 30 iterations (22 and 15).
 #[test]
 fn the_study_steps_need_no_restoration_from_slacks_near_zero() {
     for (name, horizon) in [("blocked-step", 12), ("blocked-step-again", 10)] {
