@@ -38,10 +38,10 @@ pub struct NlpArgs {
     /// NLP back-end.
     #[arg(long, value_enum, default_value_t = SolverChoice::Ipm)]
     pub solver: SolverChoice,
-    /// How each step restarts from the last one's solution: `primal` (the shifted plan and
-    /// constraint multipliers, bound multipliers and barrier afresh; the default of `ipm`)
-    /// or `primal-dual` (the shifted plan and all multipliers; the default of `sqp` and
-    /// `ipopt`).
+    /// How each step restarts from the last one's solution: `primal` (the shifted plan,
+    /// under guidance with the constraint multipliers; bound multipliers and barrier afresh;
+    /// the default of `ipm`) or `primal-dual` (the shifted plan and all multipliers; the
+    /// default of `sqp` and `ipopt`).
     #[arg(long, value_enum)]
     pub warm_start: Option<WarmStartChoice>,
     /// Soft-band bounds to plan with: `auto` plans with the model file's `plan` bounds on

@@ -3,8 +3,9 @@
 //!
 //! The solve starts from the previous solution shifted by one step, as the back-end prefers
 //! ([`Solver::warm_start`], [`Mpc::warm_start`]): the interior point from the shifted primal
-//! point and constraint multipliers with a fresh barrier ([`WarmStart::Primal`]: six to ten
-//! iterations every step, none much longer), SQP from the shifted primal point and multipliers
+//! point with a fresh barrier (and, under guidance, the shifted constraint multipliers;
+//! [`WarmStart::Primal`]: six to ten iterations every step, none much longer), SQP from
+//! the shifted primal point and multipliers
 //! ([`WarmStart::PrimalDual`]). Its status is checked every step. A primal-dual warm solve
 //! is capped at [`Mpc::warm_iteration_limit`] iterations (the solver's
 //! [`Solver::warm_iteration_budget`]: 15 for SQP, 40 for the interior-point method and
@@ -168,7 +169,13 @@ impl Mpc {
         self.ocp
             .shift_multipliers(&last.multipliers, &mut self.start_lambda);
         if self.warm_start == WarmStart::Primal {
-            let start = Start::shifted(&self.start_x).with_multipliers(&self.start_lambda);
+            // A guided restart (RL-guided MPC) also carries the constraint multipliers:
+            // see `IpmOptions::shifted_slack_push` for what that buys and why plain MPC
+            // does without.
+            let mut start = Start::shifted(&self.start_x);
+            if primal_ready {
+                start = start.with_multipliers(&self.start_lambda);
+            }
             return Some(self.solver.solve(&mut self.ocp, start));
         }
         self.ocp

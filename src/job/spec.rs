@@ -224,9 +224,9 @@ pub enum SolverChoice {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum WarmStartChoice {
-    /// The shifted primal point and constraint multipliers; bound multipliers and barrier
-    /// afresh (the interior point's default: six to ten iterations every step, none much
-    /// longer).
+    /// The shifted primal point (under guidance with the constraint multipliers); bound
+    /// multipliers and barrier afresh (the interior point's default: six to twelve
+    /// iterations every step, none much longer).
     Primal,
     /// The shifted primal point and multipliers (SQP's and IPOPT's default; the interior
     /// point's fewest iterations in the median, 20–40 where the active set changes).

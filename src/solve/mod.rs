@@ -148,11 +148,11 @@ impl<'a> Start<'a> {
     }
 
     /// The same start with the constraint multipliers `λ` of the earlier solution,
-    /// shifted like the point; the bound multipliers still start afresh. An interior point
-    /// starts its barrier from its initial `μ` all the same, and the Hessian of its first
-    /// iteration carries the dynamics' curvature (with `λ = 0` it is the cost's alone):
-    /// measured on the 40-day seasons at 6 h, the longest step took 34 iterations instead of
-    /// 46 (paper MPC) and 21 instead of 34 (paper RL-guided MPC).
+    /// shifted like the point; the bound multipliers still start afresh (RL-guided MPC's
+    /// restart). An interior point starts its barrier from its initial `μ` all the same,
+    /// the Hessian of its first iteration carries the dynamics' curvature (with `λ = 0` it
+    /// is the cost's alone), and it pushes the one-sided bounds less far inside
+    /// ([`IpmOptions::shifted_slack_push`](crate::solve::IpmOptions::shifted_slack_push)).
     pub fn with_multipliers(self, multipliers: &'a [f64]) -> Start<'a> {
         Start {
             multipliers: Some(multipliers),
@@ -181,9 +181,9 @@ pub enum WarmStart {
     /// the fewest iterations while the active set stays, but 20–40 iterations at
     /// fraction-to-the-boundary steps of 1e-4 … 1e-1 where it changes.
     PrimalDual,
-    /// The shifted primal point and constraint multipliers
-    /// ([`Start::shifted`], [`Start::with_multipliers`]), the barrier parameter and the
-    /// bound multipliers started afresh (fatrop's way): an interior point takes six to ten
+    /// The shifted primal point ([`Start::shifted`]; under guidance with the constraint
+    /// multipliers, [`Start::with_multipliers`]), the barrier parameter and the bound
+    /// multipliers started afresh (fatrop's way): an interior point takes six to twelve
     /// iterations every step, and a worst step within a few times the median.
     Primal,
 }
