@@ -4,7 +4,7 @@
 //! The solve starts from the previous solution shifted by one step, as the back-end prefers
 //! ([`Solver::warm_start`], [`Mpc::warm_start`]): the interior point from the shifted primal
 //! point with a fresh barrier (and, under guidance, the shifted constraint multipliers;
-//! [`WarmStart::Primal`]: six to ten iterations every step, none much longer), SQP from
+//! [`WarmStart::Primal`]: six to twelve iterations every step, none much longer), SQP from
 //! the shifted primal point and multipliers
 //! ([`WarmStart::PrimalDual`]). Its status is checked every step. A primal-dual warm solve
 //! is capped at [`Mpc::warm_iteration_limit`] iterations (the solver's
