@@ -410,13 +410,12 @@ fn a_terminal_cost_set_between_solves_is_seen() {
 
 /// One MPC step of the paper study kept whole in `tests/fixtures/<name>.json` (the lettuce
 /// plant over `horizon` stages, the stochastic agent's value network as its terminal cost),
-/// solved by the interior point with `options` from the shifted plan the controller started
-/// from, bare or `with_multipliers` (zero): the solution, the restorations it took and
-/// its KKT residuals.
+/// solved by the interior point (default options) from the shifted plan the controller
+/// started from, bare or `with_multipliers` (zero): the solution, the restorations it took
+/// and its KKT residuals.
 fn solve_study_step(
     name: &str,
     horizon: usize,
-    options: IpmOptions,
     with_multipliers: bool,
 ) -> (ghm::solve::Solution, usize, ghm::solve::KktResiduals) {
     let text = std::fs::read_to_string(format!("tests/fixtures/{name}.json")).unwrap();
@@ -437,10 +436,10 @@ fn solve_study_step(
     let value =
         ValueFile::load(Path::new("models/agents/lettuce/stochastic/value-sac.json")).unwrap();
     ocp.set_terminal_cost(Some(Box::new(ValueTerminalCost::new(value))));
-    let mut ipm = Ipm::new(options);
+    let mut ipm = Ipm::default();
     let start = floats("start");
-    let zeros = vec![0.0; ocp.n_cons()];
     let solution = if with_multipliers {
+        let zeros = vec![0.0; ocp.n_cons()];
         ipm.solve(&mut ocp, Start::shifted(&start).with_multipliers(&zeros))
     } else {
         ipm.solve(&mut ocp, Start::shifted(&start))
@@ -458,8 +457,7 @@ fn solve_study_step(
 /// the step when it was kept: optimal, KKT residual below 1e-6, after exactly one
 /// restoration and in at most 40 iterations.
 fn assert_study_step_solved_after_one_restoration(name: &str, horizon: usize) {
-    let (solution, restorations, kkt) =
-        solve_study_step(name, horizon, IpmOptions::default(), false);
+    let (solution, restorations, kkt) = solve_study_step(name, horizon, false);
     assert_eq!(solution.status, SolveStatus::Optimal);
     assert!(kkt.max() < 1e-6, "{kkt:?}");
     assert_eq!(restorations, 1);
@@ -474,8 +472,7 @@ fn assert_study_step_solved_after_one_restoration(name: &str, horizon: usize) {
 #[test]
 fn the_study_steps_need_no_restoration_from_slacks_near_zero() {
     for (name, horizon) in [("blocked-step", 12), ("blocked-step-again", 10)] {
-        let (solution, restorations, kkt) =
-            solve_study_step(name, horizon, IpmOptions::default(), true);
+        let (solution, restorations, kkt) = solve_study_step(name, horizon, true);
         assert!(
             solution.status.is_success(),
             "{name}: {:?}",

@@ -166,16 +166,19 @@ impl Mpc {
         if !primal_ready {
             self.ocp.shift_primal(&last.x, &mut self.start_x);
         }
+        if self.warm_start == WarmStart::Primal && !primal_ready {
+            return Some(
+                self.solver
+                    .solve(&mut self.ocp, Start::shifted(&self.start_x)),
+            );
+        }
         self.ocp
             .shift_multipliers(&last.multipliers, &mut self.start_lambda);
         if self.warm_start == WarmStart::Primal {
             // A guided restart (RL-guided MPC) also carries the constraint multipliers:
             // see `IpmOptions::shifted_slack_push` for what that buys and why plain MPC
             // does without.
-            let mut start = Start::shifted(&self.start_x);
-            if primal_ready {
-                start = start.with_multipliers(&self.start_lambda);
-            }
+            let start = Start::shifted(&self.start_x).with_multipliers(&self.start_lambda);
             return Some(self.solver.solve(&mut self.ocp, start));
         }
         self.ocp
