@@ -8,8 +8,13 @@
 //!   Hessian in its lanes. The cost is a small multiple of one evaluation and no dense
 //!   `n × n` second-order dual is ever formed.
 //!
+//! The reverse sweep skips what the inputs not chosen cannot change
+//! ([`super::activity`]): the adjoints of passive slots, and the zero lanes of a passive
+//! factor's partial.
+//!
 //! All scratch space lives in [`Derivatives`], sized once: evaluation does not allocate.
 
+use super::activity::{active_args, is_active, ActiveArgs, FIRST_ONLY, SECOND_ONLY};
 use super::lanes::{Lanes, LANES};
 use super::{Op, Real, Tape, Workspace};
 
@@ -32,6 +37,7 @@ pub struct Evaluation {
 #[derive(Debug, Clone)]
 pub struct Derivatives {
     wrt: Vec<usize>,
+    active: Vec<ActiveArgs>,
     result: Evaluation,
     inputs: Vec<Lane>,
     ws: Workspace<Lane>,
@@ -49,6 +55,7 @@ impl Derivatives {
         let (m, n) = (tape.outputs.len(), wrt.len());
         Derivatives {
             wrt: wrt.to_vec(),
+            active: active_args(tape, wrt),
             result: Evaluation {
                 values: vec![0.0; m],
                 jacobian: vec![0.0; m * n],
@@ -114,7 +121,14 @@ impl Derivatives {
         let n = self.wrt.len();
         for chunk in 0..self.chunks() {
             let cols = self.forward(tape, x, chunk);
-            reverse_sweep(tape, &self.ws, weights, &mut self.adjoint, &mut self.live);
+            reverse_sweep(
+                tape,
+                &self.active,
+                &self.ws,
+                weights,
+                &mut self.adjoint,
+                &mut self.live,
+            );
             for (k, &i) in self.wrt.iter().enumerate() {
                 let a = &self.adjoint[i];
                 self.result.gradient[k] = a.re;
@@ -136,8 +150,13 @@ impl Derivatives {
 /// partials would not be zero where the branch is not defined (`sqrt(-1)`: 0 · NaN = NaN),
 /// and `if(x > 0, x, sqrt(-x - 1))` would poison every derivative with the branch it does
 /// not take. The forward pass needs no such care: `Select` passes on the taken dual whole.
+///
+/// Passive slots (`active`, from [`active_args`]) get no adjoint either: nothing chosen
+/// depends on them. A product or quotient with a passive argument passes the adjoint on
+/// scaled by a float, which is the dual product with zero lanes, without them.
 pub(crate) fn reverse_sweep<T: Real>(
     tape: &Tape,
+    active: &[ActiveArgs],
     ws: &Workspace<T>,
     weights: &[f64],
     adjoint: &mut [T],
@@ -152,8 +171,8 @@ pub(crate) fn reverse_sweep<T: Real>(
         live[s as usize] |= w != 0.0;
     }
     let v = &ws.slots;
-    for ins in tape.instrs.iter().rev() {
-        if !live[ins.out as usize] {
+    for (ins, &args) in tape.instrs.iter().zip(active).rev() {
+        if args == 0 || !live[ins.out as usize] {
             continue;
         }
         // No skipping on `g == 0` beyond `live`: duals compare by real part only, and a
@@ -161,31 +180,46 @@ pub(crate) fn reverse_sweep<T: Real>(
         let g = adjoint[ins.out as usize];
         let [a, b, c] = ins.args;
         let (va, vb, vc) = (v[a as usize].re(), v[b as usize].re(), v[c as usize].re());
+        let mut pass = |k: usize, increment: T| {
+            if is_active(args, k) {
+                let slot = ins.args[k] as usize;
+                adjoint[slot] += increment;
+                live[slot] = true;
+            }
+        };
         // The linear ops pass the adjoint on as it is: no product of duals needed.
-        match ins.op {
-            Op::Add | Op::Sub => {
-                adjoint[a as usize] += g;
-                if ins.op == Op::Add {
-                    adjoint[b as usize] += g;
-                } else {
-                    adjoint[b as usize] -= g;
-                }
-                live[a as usize] = true;
-                live[b as usize] = true;
+        match (ins.op, args) {
+            (Op::Add, _) => {
+                pass(0, g);
+                pass(1, g);
                 continue;
             }
-            Op::Neg => {
-                adjoint[a as usize] -= g;
-                live[a as usize] = true;
+            (Op::Sub, _) => {
+                pass(0, g);
+                pass(1, -g);
+                continue;
+            }
+            (Op::Neg, _) => {
+                pass(0, -g);
+                continue;
+            }
+            (Op::Mul, FIRST_ONLY) => {
+                pass(0, g * vb);
+                continue;
+            }
+            (Op::Mul, SECOND_ONLY) => {
+                pass(1, g * va);
+                continue;
+            }
+            (Op::Div, FIRST_ONLY) => {
+                pass(0, g * vb.recip());
                 continue;
             }
             _ => {}
         }
         if let Some(k) = ins.op.passed_on(va, vb, vc) {
             // ∂/∂taken = 1; nothing else (an `if`'s condition is piecewise constant).
-            let taken = ins.args[k] as usize;
-            adjoint[taken] += g;
-            live[taken] = true;
+            pass(k, g);
             continue;
         }
         let p = ins.op.partials(
@@ -194,16 +228,8 @@ pub(crate) fn reverse_sweep<T: Real>(
             v[c as usize],
             v[ins.out as usize],
         );
-        let arity = ins.op.arity();
-        adjoint[a as usize] += g * p[0];
-        live[a as usize] = true;
-        if arity > 1 {
-            adjoint[b as usize] += g * p[1];
-            live[b as usize] = true;
-        }
-        if arity > 2 {
-            adjoint[c as usize] += g * p[2];
-            live[c as usize] = true;
+        for (k, &partial) in p.iter().enumerate().take(ins.op.arity()) {
+            pass(k, g * partial);
         }
     }
 }
@@ -228,7 +254,9 @@ pub fn gradient_f64(tape: &Tape, x: &[f64], weights: &[f64]) -> Vec<f64> {
     tape.run(&mut ws);
     let mut adjoint = vec![0.0; tape.n_slots];
     let mut live = vec![false; tape.n_slots];
-    reverse_sweep(tape, &ws, weights, &mut adjoint, &mut live);
+    let everything: Vec<usize> = (0..tape.n_inputs).collect();
+    let active = active_args(tape, &everything);
+    reverse_sweep(tape, &active, &ws, weights, &mut adjoint, &mut live);
     adjoint.truncate(tape.n_inputs);
     adjoint
 }
@@ -288,6 +316,72 @@ mod tests {
         }
         let g2 = gradient_f64(&tape, &x, &[1.0]);
         assert!((g2[1] - g_ref[1]).abs() < 1e-13);
+    }
+
+    /// Every sum, difference, product and quotient with one passive argument, in both
+    /// orders, and the choosing ops with a passive branch: the sweeps that skip the passive
+    /// halves give what hyper-dual numbers give, entry by entry.
+    #[test]
+    fn passive_inputs_leave_the_derivatives_as_hyper_duals_give_them() {
+        use num_dual::HyperDual64;
+        // Inputs (x, y, p, q); differentiate against x and y only.
+        let mut g = Graph::new();
+        let (x, y, p, q) = (g.var(0), g.var(1), g.var(2), g.var(3));
+        let pq = g.mul(p, q);
+        let terms = [
+            g.mul(x, pq),
+            g.mul(pq, y),
+            g.div(x, p),
+            g.div(q, y),
+            g.add(x, q),
+            g.sub(p, y),
+            g.sub(y, q),
+            g.apply(Op::Exp, &[pq]),
+            g.apply(Op::Max, &[x, p]),
+            g.apply(Op::Min, &[q, y]),
+        ];
+        let mut products = Vec::new();
+        for (k, &t) in terms.iter().enumerate() {
+            let partner = terms[(k + 3) % terms.len()];
+            products.push(g.mul(t, partner));
+            products.push(g.div(t, partner));
+        }
+        let curved = g.apply(Op::Exp, &[products[4]]);
+        let total = g.sum(&products);
+        let tape = g.compile(&[total, curved], 4);
+        let weights = [0.7, -1.3];
+        let wrt = [0, 1];
+        // One max takes its passive branch, the other choice its active one.
+        for point in [[0.9, 1.4, 0.6, 2.1], [0.3, -0.8, 1.2, 0.5]] {
+            let mut d = Derivatives::new(&tape, &wrt);
+            let e = d.hessian(&tape, &point, &weights).clone();
+            for (i, &wi) in wrt.iter().enumerate() {
+                for (j, &wj) in wrt.iter().enumerate() {
+                    let seeded: Vec<HyperDual64> = point
+                        .iter()
+                        .enumerate()
+                        .map(|(k, &v)| {
+                            let e1 = if k == wi { 1.0 } else { 0.0 };
+                            let e2 = if k == wj { 1.0 } else { 0.0 };
+                            HyperDual64::new(v, e1, e2, 0.0)
+                        })
+                        .collect();
+                    let mut ws = tape.workspace::<HyperDual64>();
+                    let mut out = [HyperDual64::from(0.0); 2];
+                    tape.eval(&mut ws, &seeded, &mut out);
+                    let sum = out[0] * weights[0] + out[1] * weights[1];
+                    let close = |a: f64, b: f64| (a - b).abs() <= 1e-13 * (1.0 + b.abs());
+                    assert!(
+                        close(e.hessian[i * 2 + j], sum.eps1eps2),
+                        "H[{i}][{j}] at {point:?}"
+                    );
+                    assert!(close(e.gradient[i], sum.eps1), "g[{i}] at {point:?}");
+                    for (row, o) in out.iter().enumerate() {
+                        assert!(close(e.jacobian[row * 2 + i], o.eps1), "J[{row}][{i}]");
+                    }
+                }
+            }
+        }
     }
 
     #[test]

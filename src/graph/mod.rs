@@ -47,6 +47,7 @@
 //! assert!((e.gradient[1] - (a * a - 3.0 * a / (b * b))).abs() < 1e-15);
 //! ```
 
+mod activity;
 mod derivative;
 mod lanes;
 mod op;
