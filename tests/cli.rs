@@ -265,10 +265,11 @@ fn mpc_runs_on_builtin_weather_and_reports_solver_statistics() {
 }
 
 /// `--warm-start primal-dual` restarts each step from the shifted plan and its
-/// multipliers instead: the run says so in its summary, solves every step, and lands on
-/// the same season as the default restart.
+/// multipliers instead, `primal-multipliers` from the shifted plan and its constraint
+/// multipliers: each run says so in its summary, solves every step, and lands on the same
+/// season as the default restart.
 #[test]
-fn mpc_takes_the_primal_dual_restart_on_request() {
+fn mpc_takes_the_other_restarts_on_request() {
     let reward_with = |restart: Option<&str>| {
         let dir = temp_dir(&format!("restart-{}", restart.unwrap_or("default")));
         let d = dir.to_str().expect("utf-8 temp path");
@@ -295,11 +296,14 @@ fn mpc_takes_the_primal_dual_restart_on_request() {
         let _ = std::fs::remove_dir_all(&dir);
         reward.expect("cumulative reward")
     };
-    let (primal, primal_dual) = (reward_with(None), reward_with(Some("primal-dual")));
-    assert!(
-        (primal - primal_dual).abs() <= 1e-4,
-        "{primal} vs {primal_dual}"
-    );
+    let primal = reward_with(None);
+    for restart in ["primal-dual", "primal-multipliers"] {
+        let other = reward_with(Some(restart));
+        assert!(
+            (primal - other).abs() <= 1e-4,
+            "{restart}: {primal} vs {other}"
+        );
+    }
 }
 
 /// The figures of `summary.json` are those of the rows of `trajectory.csv`: the season's

@@ -46,12 +46,17 @@ fn closed_loop(
 }
 
 /// MPC of `file` with the interior point, restarted each step from the shifted plan alone
-/// (the default) and from the shifted plan with its multipliers: no failed solve, no
-/// fallback, and SQP's cumulative reward to `relative` of it.
+/// (the default), from the shifted plan with its constraint multipliers and from the
+/// shifted plan with all its multipliers: no failed solve, no fallback, and SQP's
+/// cumulative reward to `relative` of it.
 fn assert_ipm_follows_sqp(file: &str, horizon: usize, steps: usize, relative: f64) {
     let plant = plant(file);
     let sqp = closed_loop(&plant, horizon, Box::new(Sqp::default()), None, steps);
-    for restart in [WarmStart::Primal, WarmStart::PrimalDual] {
+    for restart in [
+        WarmStart::Primal,
+        WarmStart::PrimalMultipliers,
+        WarmStart::PrimalDual,
+    ] {
         let ipm = closed_loop(
             &plant,
             horizon,
@@ -99,17 +104,23 @@ impl TerminalCost for Saddle {
     }
 }
 
+/// The CSTR over one minute from its unstable steady state with [`Saddle`] as terminal
+/// cost, and its initial point.
+fn saddle_problem() -> (Ocp, Vec<f64>) {
+    let mut ocp = Ocp::new(plant("models/cstr.ghm"), 10).unwrap();
+    ocp.set_problem(0, &[0.5, 350.0], &[300.0], &[]).unwrap();
+    ocp.set_terminal_cost(Some(Box::new(Saddle)));
+    let mut start = vec![0.0; ocp.n_vars()];
+    ocp.initial_point(&mut start);
+    (ocp, start)
+}
+
 #[test]
 fn an_indefinite_terminal_hessian_is_solved_without_convexification() {
     // The CSTR over one minute with a saddle as its terminal cost, started at the
     // unstable steady state: the exact Hessian is indefinite, and the interior point
     // takes it as it is (inertia corrections only where the reduced Hessian needs them).
-    let plant = plant("models/cstr.ghm");
-    let mut ocp = Ocp::new(plant.clone(), 10).unwrap();
-    ocp.set_problem(0, &[0.5, 350.0], &[300.0], &[]).unwrap();
-    ocp.set_terminal_cost(Some(Box::new(Saddle)));
-    let mut start = vec![0.0; ocp.n_vars()];
-    ocp.initial_point(&mut start);
+    let (mut ocp, start) = saddle_problem();
     let mut ipm = Ipm::default();
     let solution = ipm.solve(&mut ocp, Start::cold(&start));
     assert!(solution.status.is_success(), "{:?}", solution.stats);
@@ -155,6 +166,104 @@ fn an_mpc_step_records_its_inertia_corrections() {
         decision.record
     );
     assert!(decision.record.inertia_corrections <= decision.record.iterations);
+}
+
+#[test]
+fn a_correction_limit_ends_the_solve_with_max_iterations() {
+    // The saddle's cold solve needs corrections; a limit of one ends it at the first.
+    let (mut ocp, start) = saddle_problem();
+    let mut ipm = Ipm::default();
+    ipm.set_correction_limit(Some(1));
+    let limited = ipm.solve(&mut ocp, Start::cold(&start));
+    assert_eq!(limited.status, SolveStatus::MaxIterations);
+    assert_eq!(limited.stats.inertia_corrections, 1);
+    ipm.set_correction_limit(None);
+    let free = ipm.solve(&mut ocp, Start::cold(&start));
+    assert!(free.status.is_success(), "{:?}", free.stats);
+    assert!(free.stats.iterations > limited.stats.iterations);
+}
+
+/// The interior point, with a record of every solve: whether its start carried the
+/// constraint multipliers, how it ended and its iterations. Its correction limit is
+/// `forced` whenever MPC sets one, so that a short test reaches it.
+struct Recorded {
+    inner: Ipm,
+    forced: usize,
+    solves: std::rc::Rc<std::cell::RefCell<Vec<(bool, SolveStatus, usize)>>>,
+}
+
+impl Solver for Recorded {
+    fn name(&self) -> &'static str {
+        "ipm"
+    }
+    fn solve(&mut self, nlp: &mut dyn Nlp, start: Start<'_>) -> ghm::solve::Solution {
+        let with_multipliers = start.multipliers.is_some();
+        let solution = self.inner.solve(nlp, start);
+        self.solves.borrow_mut().push((
+            with_multipliers,
+            solution.status,
+            solution.stats.iterations,
+        ));
+        solution
+    }
+    fn set_correction_limit(&mut self, limit: Option<usize>) {
+        self.inner.set_correction_limit(limit.map(|_| self.forced));
+    }
+    fn warm_start(&self) -> WarmStart {
+        self.inner.warm_start()
+    }
+}
+
+#[test]
+fn a_restart_whose_hessian_keeps_needing_corrections_starts_again_from_the_plan() {
+    // Plain MPC on the saddle, restarted the `primal-multipliers` way: each step after the
+    // first starts from the shifted plan and multipliers; when that solve reaches its
+    // correction limit, the same step is solved again from the shifted plan alone, and the
+    // step's record counts both.
+    let plant = plant("models/cstr.ghm");
+    let solves = std::rc::Rc::default();
+    let recorded = Recorded {
+        inner: Ipm::default(),
+        forced: 1,
+        solves: std::rc::Rc::clone(&solves),
+    };
+    let mut mpc = Mpc::new(plant.clone(), 10, Box::new(recorded)).unwrap();
+    mpc.warm_start = WarmStart::PrimalMultipliers;
+    mpc.ocp_mut().set_terminal_cost(Some(Box::new(Saddle)));
+    use ghm::control::Controller;
+    let mut state = [0.5, 350.0];
+    let mut previous = [300.0];
+    let mut retried = 0;
+    for step in 0..4 {
+        let observation = ghm::control::Observation {
+            step,
+            state: &state,
+            outputs: &state,
+            previous_input: &previous,
+            forecast: &[],
+        };
+        let before = solves.borrow().len();
+        let decision = mpc.decide(&observation).unwrap();
+        assert!(decision.record.fallback.is_none(), "{:?}", decision.record);
+        let these = solves.borrow()[before..].to_vec();
+        assert_eq!(
+            decision.record.iterations,
+            these.iter().map(|s| s.2).sum::<usize>()
+        );
+        if step > 0 {
+            assert!(these[0].0, "the restart carries the multipliers: {these:?}");
+            if these[0].1 == SolveStatus::MaxIterations {
+                assert_eq!(these.len(), 2, "{these:?}");
+                assert!(!these[1].0 && these[1].1.is_success(), "{these:?}");
+                retried += 1;
+            }
+        }
+        previous = [decision.input[0]];
+        let params = plant.model.nominal_params();
+        let next = plant.step(&state, &previous, &[], &params).next_state;
+        state = [next[0], next[1]];
+    }
+    assert!(retried > 0, "no restart reached its correction limit");
 }
 
 /// `x_{k+1} = x_k + u_k` from `x_0 = 0`, `u_k ∈ [−1, 1]`: minimise

@@ -231,6 +231,10 @@ pub enum WarmStartChoice {
     /// The shifted primal point and multipliers (SQP's and IPOPT's default; the interior
     /// point's fewest iterations in the median, 20–40 where the active set changes).
     PrimalDual,
+    /// The shifted primal point with its constraint multipliers for plain MPC too, again
+    /// without them where the Hessian keeps needing corrections (the interior point: a
+    /// quarter fewer iterations than `primal`).
+    PrimalMultipliers,
 }
 
 impl WarmStartChoice {
@@ -239,6 +243,7 @@ impl WarmStartChoice {
         match self {
             WarmStartChoice::Primal => crate::solve::WarmStart::Primal,
             WarmStartChoice::PrimalDual => crate::solve::WarmStart::PrimalDual,
+            WarmStartChoice::PrimalMultipliers => crate::solve::WarmStart::PrimalMultipliers,
         }
     }
 }
@@ -249,6 +254,7 @@ impl From<crate::solve::WarmStart> for WarmStartChoice {
         match restart {
             crate::solve::WarmStart::Primal => WarmStartChoice::Primal,
             crate::solve::WarmStart::PrimalDual => WarmStartChoice::PrimalDual,
+            crate::solve::WarmStart::PrimalMultipliers => WarmStartChoice::PrimalMultipliers,
         }
     }
 }

@@ -98,9 +98,11 @@ pub struct IpmOptions {
     /// `α ≈ 0.1` by the slacks' fraction to the boundary. Measured over the paper study's
     /// 744 RL-MPC and RL-MPC-VFO seasons: with 1e-4 and the multipliers, 1.8–2.1 iterations
     /// fewer per step and the longest step within 9.8× its season's median (5.7× with the
-    /// terminal region). Plain MPC keeps the bare shifted plan: there the same start
-    /// lowered the median from 11 to 7 iterations but left the longest steps where they
-    /// were (up to 94, inertia-corrected crawls), 13.4× the median in the worst season.
+    /// terminal region). Plain MPC keeps the bare shifted plan by default: there the same
+    /// start lowered the median from 11 to 7 iterations but left the longest steps where
+    /// they were (up to 94, inertia-corrected crawls), 13.4× the median in the worst
+    /// season, unless a solve that needs three corrections starts again from the bare
+    /// plan ([`WarmStart::PrimalMultipliers`](crate::solve::WarmStart::PrimalMultipliers)).
     pub shifted_slack_push: f64,
     /// How far inside its bounds a warm start is pushed, relative to the bound's size.
     pub warm_push: f64,
@@ -195,6 +197,7 @@ pub struct Ipm {
     /// Its tuning; may be changed between solves.
     pub options: IpmOptions,
     iteration_limit: Option<usize>,
+    correction_limit: Option<usize>,
     /// The stage map and the Riccati workspace, kept while the problem's patterns are
     /// the same (an `Ocp` keeps its sizes but changes its Hessian pattern when a terminal
     /// cost comes or goes).
@@ -485,6 +488,7 @@ impl Ipm {
         Ipm {
             options,
             iteration_limit: None,
+            correction_limit: None,
             layout: None,
             corrections: 0,
             restorations: 0,
@@ -610,6 +614,10 @@ impl Solver for Ipm {
 
     fn set_iteration_limit(&mut self, limit: Option<usize>) {
         self.iteration_limit = limit;
+    }
+
+    fn set_correction_limit(&mut self, limit: Option<usize>) {
+        self.correction_limit = limit;
     }
 
     fn warm_iteration_budget(&self) -> usize {
@@ -958,6 +966,20 @@ impl Ipm {
             let delta = riccati.corrections().iter().fold(0.0_f64, |a, &d| a.max(d));
             if corrected > 0 {
                 self.corrections += 1;
+                if self
+                    .correction_limit
+                    .is_some_and(|limit| self.corrections >= limit)
+                {
+                    return self.finish(
+                        nlp,
+                        &setup,
+                        it,
+                        SolveStatus::MaxIterations,
+                        iteration,
+                        ev.f,
+                        clock,
+                    );
+                }
             }
             let direction = Newton {
                 setup: &setup,
