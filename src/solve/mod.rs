@@ -192,7 +192,7 @@ pub enum WarmStart {
     /// iterations a step instead of 9.41, no fallback, the longest step 9.9× its season's
     /// median instead of 8.1× (69 iterations instead of 89). Not the default: RL-guided
     /// MPC's cost is budgeted against plain MPC's (at most 1.5× a step), and against this
-    /// faster MPC it is 1.6–2.1× at 1 h (`docs/benchmarks.md`).
+    /// faster MPC it is 1.5–1.9× at 1–3 h (`docs/benchmarks.md`).
     PrimalMultipliers,
 }
 
