@@ -7,10 +7,10 @@
 //! [`WarmStart::Primal`]: six to twelve iterations every step, none much longer; with the
 //! multipliers for plain MPC too and the bare plan where the Hessian keeps needing
 //! corrections, [`WarmStart::PrimalMultipliers`]), SQP from the shifted primal point and
-//! multipliers ([`WarmStart::PrimalDual`]). Its status is checked every step. A primal-dual warm solve
-//! is capped at [`Mpc::warm_iteration_limit`] iterations (the solver's
-//! [`Solver::warm_iteration_budget`]: 15 for SQP, 40 for the interior-point method and
-//! IPOPT): from a shifted solution SQP needs two or three, and one that needs many more is
+//! multipliers ([`WarmStart::PrimalDual`]). Its status is checked every step. A
+//! primal-dual warm solve is capped at [`Mpc::warm_iteration_limit`] iterations (the
+//! solver's [`Solver::warm_iteration_budget`]: 15 for SQP, 40 for the interior-point
+//! method and IPOPT): from a shifted solution SQP needs two or three, and one that needs many more is
 //! usually stuck on a flat stretch of the economic cost, where a cold start is the better
 //! use of time. When it fails, the controller falls back, in this order:
 //!
@@ -199,8 +199,8 @@ impl Mpc {
 
     /// Plain MPC's [`WarmStart::PrimalMultipliers`] restart: from the shifted plan and
     /// multipliers while the Hessian needs fewer than [`CLOSER_START_CORRECTIONS`]
-    /// corrections, else again from the shifted plan alone. The returned solution counts the iterations and corrections of
-    /// both attempts.
+    /// corrections, else again from the shifted plan alone. The returned solution counts
+    /// the iterations and corrections of both attempts.
     fn solve_shifted_with_multipliers(&mut self) -> Solution {
         self.solver
             .set_correction_limit(Some(CLOSER_START_CORRECTIONS));

@@ -58,7 +58,7 @@ mod tests {
         let (x, y, p) = (g.var(0), g.var(1), g.var(2));
         let p2 = g.mul(p, p); // passive
         let xp = g.mul(x, p2); // first only
-        let two_y = g.scale(2.0, y); // the constant first, after hash-consing's ordering
+        let two_y = g.scale(2.0, y); // a passive constant times an active input
         let sum = g.add(xp, two_y); // both
         let tape = g.compile(&[sum], 3);
         let args = active_args(&tape, &[0, 1]);

@@ -351,7 +351,8 @@ mod tests {
         let tape = g.compile(&[total, curved], 4);
         let weights = [0.7, -1.3];
         let wrt = [0, 1];
-        // One max takes its passive branch, the other choice its active one.
+        // At the first point both choices take their active argument; at the second the
+        // max takes its passive one.
         for point in [[0.9, 1.4, 0.6, 2.1], [0.3, -0.8, 1.2, 0.5]] {
             let mut d = Derivatives::new(&tape, &wrt);
             let e = d.hessian(&tape, &point, &weights).clone();
