@@ -233,6 +233,7 @@ fn a_restart_whose_hessian_keeps_needing_corrections_starts_again_from_the_plan(
     use ghm::control::Controller;
     let mut state = [0.5, 350.0];
     let mut previous = [300.0];
+    let params = plant.model.nominal_params();
     let mut retried = 0;
     for step in 0..4 {
         let observation = ghm::control::Observation {
@@ -259,7 +260,6 @@ fn a_restart_whose_hessian_keeps_needing_corrections_starts_again_from_the_plan(
             }
         }
         previous = [decision.input[0]];
-        let params = plant.model.nominal_params();
         let next = plant.step(&state, &previous, &[], &params).next_state;
         state = [next[0], next[1]];
     }

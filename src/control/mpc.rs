@@ -10,9 +10,9 @@
 //! multipliers ([`WarmStart::PrimalDual`]). Its status is checked every step. A
 //! primal-dual warm solve is capped at [`Mpc::warm_iteration_limit`] iterations (the
 //! solver's [`Solver::warm_iteration_budget`]: 15 for SQP, 40 for the interior-point
-//! method and IPOPT): from a shifted solution SQP needs two or three, and one that needs many more is
-//! usually stuck on a flat stretch of the economic cost, where a cold start is the better
-//! use of time. When it fails, the controller falls back, in this order:
+//! method and IPOPT): from a shifted solution SQP needs two or three, and one that needs
+//! many more is usually stuck on a flat stretch of the economic cost, where a cold start is
+//! the better use of time. When it fails, the controller falls back, in this order:
 //!
 //! 1. `cold_start`: solve again from the held previous input, simulated (under guidance,
 //!    first from a fresh roll-out of the guide, its terminal region re-centred on it);
@@ -178,7 +178,7 @@ impl Mpc {
         if self.warm_start != WarmStart::PrimalDual {
             // A guided restart (RL-guided MPC) also carries the constraint multipliers:
             // see `IpmOptions::shifted_slack_push` for what that buys and why plain MPC
-            // does so only when asked to ([`WarmStart::PrimalMultipliers`]).
+            // does so only when asked to (`WarmStart::PrimalMultipliers`).
             if primal_ready {
                 let start = Start::shifted(&self.start_x).with_multipliers(&self.start_lambda);
                 return Some(self.solver.solve(&mut self.ocp, start));

@@ -39,10 +39,10 @@
 //!   [`IpmOptions::shifted_push`] from an earlier solution ([`Start::shifted`], MPC's
 //!   default restart, [`WarmStart::Primal`]; with its constraint multipliers, as RL-guided
 //!   MPC restarts, a soft band's slack by [`IpmOptions::shifted_slack_push`]). A warm
-//!   start (all multipliers
-//!   given) keeps IPOPT's monotone rule (`μ ← max(ε/10, min(μ/5, μ^1.5))` once the barrier
-//!   problem is solved to `10 μ`) from [`IpmOptions::warm_start_mu`], the point pushed
-//!   [`IpmOptions::warm_push`] inside and the bound multipliers raised to match.
+//!   start (all multipliers given) keeps IPOPT's monotone rule (`μ ← max(ε/10, min(μ/5,
+//!   μ^1.5))` once the barrier problem is solved to `10 μ`) from
+//!   [`IpmOptions::warm_start_mu`], the point pushed [`IpmOptions::warm_push`] inside and
+//!   the bound multipliers raised to match.
 //!
 //! The problem must say its stages ([`Nlp::stages`]); a problem without them ends at once
 //! with [`SolveStatus::NumericalError`]. A line search that finds no acceptable step, and
