@@ -612,3 +612,63 @@ fn constant_powers_are_exact_and_non_finite_constants_rejected() {
         err.render()
     );
 }
+
+// ---- functions, constants in any order, the clock (issue 34) ----------------------------
+
+bad!(
+    function_calls_itself,
+    1,
+    r#"
+sample 30 [min]
+state temp [°C] = 15
+fn grow(v) = 1 + grow(v)
+der temp = grow(temp)
+"#
+);
+
+bad!(
+    function_wrong_arity_and_repeated_parameter,
+    2,
+    r#"
+sample 30 [min]
+state temp [°C] = 15
+fn band(v, lo, lo) = min(max(v, lo), lo)
+der temp = band(temp, 10)
+"#
+);
+
+bad!(
+    function_named_as_a_builtin,
+    1,
+    r#"
+sample 30 [min]
+state temp [°C] = 15
+fn exp(v) = v
+der temp = -temp
+"#
+);
+
+bad!(
+    constants_in_a_cycle,
+    1,
+    r#"
+sample 30 [min]
+const a = b + 1
+const b = c * 2
+param c = a
+state temp [°C] = c
+der temp = -temp
+"#
+);
+
+bad!(
+    two_clocks,
+    1,
+    r#"
+sample 30 [min]
+disturbance time [s] clock
+disturbance hours [h] clock column "hours"
+state temp [°C] = 15
+der temp = -temp + time + hours
+"#
+);

@@ -84,6 +84,15 @@ const HOSTILE_TOKENS: &[&str] = &[
     "..",
     "[h]",
     "[s]",
+    "fn",
+    "and",
+    "or",
+    "not",
+    "==",
+    "!=",
+    "mod(",
+    "floor(",
+    "clock",
     "\u{0}",
 ];
 
@@ -357,6 +366,7 @@ fn mutated_inputs_end_in_a_value_or_an_error_never_a_panic() {
         "lettuce-thesis.ghm",
         "cstr.ghm",
         "bioreactor.ghm",
+        "lamp-clock.ghm",
     ]
     .iter()
     .map(|m| read(&format!("models/{m}")))

@@ -58,6 +58,22 @@ pub enum Op {
     Ge,
     /// `if(c, a, b)`: `a` where `c > 0.5`, else `b`.
     Select,
+    /// 1 where `a == b`, else 0; derivative 0.
+    Eq,
+    /// 1 where `a != b`, else 0; derivative 0.
+    Ne,
+    /// `a and b`: 1 where both are true (above 0.5, as `if` reads a condition), else 0.
+    And,
+    /// `a or b`: 1 where either is true (above 0.5), else 0.
+    Or,
+    /// `not a`: 1 where `a` is false (at most 0.5), else 0.
+    Not,
+    /// The largest integer not above `a` (`floor`); derivative 0.
+    Floor,
+    /// `mod(a, b) = a − b·floor(a / b)`: the remainder with the sign of `b`, as Python's `%`
+    /// and numexpr's `mod` (`mod(time_of_day + 6, 24)`); its partials are 1 and
+    /// `−floor(a / b)`.
+    Mod,
 }
 
 impl Op {
@@ -65,7 +81,7 @@ impl Op {
     pub fn arity(self) -> usize {
         use Op::*;
         match self {
-            Neg | Exp | Log | Sqrt | Abs | Tanh | Sin | Cos | Powi(_) | Powf(_) => 1,
+            Neg | Exp | Log | Sqrt | Abs | Tanh | Sin | Cos | Powi(_) | Powf(_) | Not | Floor => 1,
             Select => 3,
             _ => 2,
         }
@@ -86,19 +102,25 @@ impl Op {
             "max" => Op::Max,
             "pow" => Op::Pow,
             "if" => Op::Select,
+            "floor" => Op::Floor,
+            "mod" => Op::Mod,
             _ => return None,
         })
     }
 
     /// Names of the functions the language offers (for messages).
     pub const FUNCTIONS: &'static [&'static str] = &[
-        "exp", "log", "sqrt", "abs", "tanh", "sin", "cos", "min", "max", "pow", "if",
+        "exp", "log", "sqrt", "abs", "tanh", "sin", "cos", "min", "max", "pow", "if", "floor",
+        "mod",
     ];
 
     /// Whether its two arguments may be swapped (`+`, `·`, `min`, `max`); the graph orders
     /// them so that both orders share a node.
     pub fn is_commutative(self) -> bool {
-        matches!(self, Op::Add | Op::Mul | Op::Min | Op::Max)
+        matches!(
+            self,
+            Op::Add | Op::Mul | Op::Min | Op::Max | Op::Eq | Op::Ne | Op::And | Op::Or
+        )
     }
 
     /// True for ops whose value is an affine function of their arguments (no Hessian
@@ -109,7 +131,8 @@ impl Op {
 
     /// True for ops whose derivative is zero almost everywhere.
     pub fn is_piecewise_constant(self) -> bool {
-        matches!(self, Op::Lt | Op::Le | Op::Gt | Op::Ge)
+        use Op::*;
+        matches!(self, Lt | Le | Gt | Ge | Eq | Ne | And | Or | Not | Floor)
     }
 
     /// The value of the op. `b` and `c` are ignored by ops of lower arity.
@@ -163,6 +186,16 @@ impl Op {
                 } else {
                     c
                 }
+            }
+            Eq => truth(a.re() == b.re()),
+            Ne => truth(a.re() != b.re()),
+            And => truth(a.re() > 0.5 && b.re() > 0.5),
+            Or => truth(a.re() > 0.5 || b.re() > 0.5),
+            Not => truth(a.re() <= 0.5),
+            Floor => T::from(a.re().floor()),
+            Mod => {
+                let quotient = (a.re() / b.re()).floor();
+                a - b * T::from(quotient)
             }
         }
     }
@@ -270,6 +303,13 @@ mod tests {
         Op::Gt,
         Op::Ge,
         Op::Select,
+        Op::Eq,
+        Op::Ne,
+        Op::And,
+        Op::Or,
+        Op::Not,
+        Op::Floor,
+        Op::Mod,
     ];
 
     #[test]
@@ -314,6 +354,32 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn mod_and_floor_follow_python() {
+        assert_eq!(Op::Mod.apply_f64(7.5, 24.0, 0.0), 7.5);
+        assert_eq!(Op::Mod.apply_f64(-1.0, 24.0, 0.0), 23.0);
+        assert_eq!(Op::Mod.apply_f64(25.0, 24.0, 0.0), 1.0);
+        assert_eq!(Op::Floor.apply_f64(-0.5, 0.0, 0.0), -1.0);
+        let p = Op::Mod.partials(50.0, 24.0, 0.0, 2.0);
+        assert_eq!(p[..2], [1.0, -2.0]);
+    }
+
+    #[test]
+    fn logic_reads_a_condition_as_if_does() {
+        let t = |op: Op, a: f64, b: f64| op.apply_f64(a, b, 0.0);
+        assert_eq!(
+            [
+                t(Op::And, 1.0, 1.0),
+                t(Op::And, 1.0, 0.0),
+                t(Op::Or, 0.0, 1.0),
+                t(Op::Or, 0.0, 0.2)
+            ],
+            [1.0, 0.0, 1.0, 0.0]
+        );
+        assert_eq!([t(Op::Not, 0.0, 0.0), t(Op::Not, 0.7, 0.0)], [1.0, 0.0]);
+        assert_eq!([t(Op::Eq, 2.0, 2.0), t(Op::Ne, 2.0, 2.0)], [1.0, 0.0]);
     }
 
     #[test]

@@ -36,6 +36,14 @@ pub enum BinaryOp {
     Gt,
     /// `a >= b`: 1 if true, else 0.
     Ge,
+    /// `a == b`: 1 if true, else 0.
+    Eq,
+    /// `a != b`: 1 if true, else 0.
+    Ne,
+    /// `a and b`: 1 if both are true (above 0.5), else 0.
+    And,
+    /// `a or b`: 1 if either is true (above 0.5), else 0.
+    Or,
 }
 
 /// An expression.
@@ -49,6 +57,8 @@ pub enum Expr {
     Next(Name, Span),
     /// Unary minus, `-a`.
     Neg(Box<Expr>, Span),
+    /// `not a`: 1 where `a` is false (at most 0.5), else 0.
+    Not(Box<Expr>, Span),
     /// `lhs op rhs`.
     Binary(BinaryOp, Box<Expr>, Box<Expr>, Span),
     /// A function call `f(a, ...)`: the function's name and its arguments in order.
@@ -59,7 +69,7 @@ impl Expr {
     /// Where the whole expression is in the source.
     pub fn span(&self) -> Span {
         match self {
-            Expr::Number(_, s) | Expr::Next(_, s) | Expr::Neg(_, s) => *s,
+            Expr::Number(_, s) | Expr::Next(_, s) | Expr::Neg(_, s) | Expr::Not(_, s) => *s,
             Expr::Name(n) => n.span,
             Expr::Binary(_, _, _, s) | Expr::Call(_, _, s) => *s,
         }
@@ -180,6 +190,9 @@ pub enum Stmt {
         /// `value V`: a constant, used when no weather file is given and every disturbance
         /// has one.
         value: Option<Expr>,
+        /// `clock`: the time in seconds, read from the weather (column `time_s` unless
+        /// `column` names another) and advanced by the integrator within a step.
+        clock: bool,
         /// Unit and description.
         doc: Doc,
     },
@@ -247,6 +260,18 @@ pub enum Stmt {
         plan: Option<Band>,
         /// The optional quoted description.
         description: Option<String>,
+    },
+    /// `fn NAME(A, B) [unit] = EXPR "description"`: a function, inlined into the graph
+    /// wherever it is called.
+    Function {
+        /// The function's name.
+        name: Name,
+        /// Its parameters, in order.
+        params: Vec<Name>,
+        /// Its body, over its parameters and any name of the model.
+        body: Expr,
+        /// Unit (of the result) and description.
+        doc: Doc,
     },
     /// `drop KIND NAME`: removes an objective term or a soft band declared before.
     Drop {

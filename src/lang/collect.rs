@@ -20,6 +20,7 @@ fn key(stmt: &Stmt) -> Option<(String, String)> {
         Stmt::Der { state, .. } => Some(("der".into(), state.text.clone())),
         Stmt::Soft { output, .. } => Some(("soft".into(), output.text.clone())),
         Stmt::Term { name, .. } => Some(("term".into(), name.text.clone())),
+        Stmt::Function { name, .. } => Some(("fn".into(), name.text.clone())),
         other => other
             .declared()
             .map(|(_, n)| ("name".into(), n.text.clone())),
@@ -30,6 +31,7 @@ fn key_span(stmt: &Statement) -> Span {
     match &stmt.stmt {
         Stmt::Der { state, .. } => state.span,
         Stmt::Soft { output, .. } => output.span,
+        Stmt::Function { name, .. } => name.span,
         other => other.declared().map_or(stmt.span, |(_, n)| n.span),
     }
 }

@@ -8,6 +8,7 @@ use crate::graph::{Graph, NodeId};
 use crate::lang::ast::{ParamKind, TermKind};
 use crate::lang::diagnostic::Diagnostic;
 use crate::lang::source::{SourceMap, Span};
+use std::collections::HashMap;
 
 /// Unit, description and source of a declaration, for people.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -58,7 +59,15 @@ pub struct DisturbanceDecl {
     pub column: Option<String>,
     /// Constant value used when no weather source provides it.
     pub value: Option<f64>,
+    /// Whether it is the model's clock (`clock`): the time in seconds, which the
+    /// integrator advances within a step.
+    pub clock: bool,
 }
+
+/// The weather column a `clock` disturbance reads unless it names another: seconds since
+/// the clock's origin (ghm's weather files count from 1 January 00:00 of the season's
+/// first year); a weather source without it counts its rows times the period.
+pub const CLOCK_COLUMN: &str = "time_s";
 
 /// A `param` or `const`: its nominal value and whether uncertainty may perturb it.
 #[derive(Debug, Clone, PartialEq)]
@@ -264,6 +273,9 @@ pub struct Model {
     pub uncertainty: Uncertainty,
     /// Warnings found while checking (errors stop checking instead).
     pub warnings: Vec<Diagnostic>,
+    /// Where each node of `graph` was first written, for messages about an expression
+    /// (empty for a model made with [`ModelBuilder`](crate::model::ModelBuilder)).
+    pub origins: HashMap<NodeId, Span>,
 }
 
 impl Model {
@@ -290,6 +302,11 @@ impl Model {
     /// Every input's value before the first step, in declaration order.
     pub fn start_input(&self) -> Vec<f64> {
         self.inputs.iter().map(|u| u.start).collect()
+    }
+
+    /// The index of the `clock` disturbance, if the model has one.
+    pub fn clock(&self) -> Option<usize> {
+        self.disturbances.iter().position(|d| d.clock)
     }
 
     /// The weather column each disturbance is read from (its `column`, else its name).

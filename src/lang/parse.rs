@@ -37,6 +37,7 @@ pub const STATEMENT_KEYWORDS: &[&str] = &[
     "override",
     "drop",
     "uncertainty",
+    "fn",
 ];
 
 /// Parses one file. `file` is the file's index in the source map (used in spans).
@@ -148,6 +149,9 @@ fn describe_expected(rules: &[Rule]) -> String {
         .iter()
         .map(|r| match r {
             Rule::expr
+            | Rule::disjunction
+            | Rule::conjunction
+            | Rule::negation
             | Rule::comparison
             | Rule::sum
             | Rule::product
@@ -164,7 +168,10 @@ fn describe_expected(rules: &[Rule]) -> String {
             Rule::weights => "`weight`",
             Rule::bounds => "`in [lo, hi]`",
             Rule::EOI => "the end of the statement",
-            Rule::cmp_op | Rule::add_op | Rule::mul_op => "an operator",
+            Rule::cmp_op | Rule::add_op | Rule::mul_op | Rule::kw_and | Rule::kw_or => {
+                "an operator"
+            }
+            Rule::fn_params => "parameters `(a, b)`",
             Rule::setting => "a setting `name = value`",
             Rule::drop_kind => "`reward`, `cost`, `soft` or `terminal`",
             _ => "more input",
@@ -355,9 +362,11 @@ impl Builder {
             Rule::disturbance_stmt => {
                 let name = self.name(self.next(&mut it, span)?);
                 let (mut doc, mut column, mut value) = (Doc::default(), None, None);
+                let mut clock = false;
                 for q in it {
                     match q.as_rule() {
                         Rule::unit => doc.unit = Some(Self::unit(q)),
+                        Rule::clock => clock = true,
                         Rule::column => column = q.children().next().map(Self::string),
                         Rule::value => {
                             value = Some(self.expr(self.next(&mut q.children(), span)?)?)
@@ -370,6 +379,7 @@ impl Builder {
                     name,
                     column,
                     value,
+                    clock,
                     doc,
                 }
             }
@@ -423,6 +433,29 @@ impl Builder {
                     weight_hi,
                     plan,
                     description,
+                }
+            }
+            Rule::fn_stmt => {
+                let name = self.name(self.next(&mut it, span)?);
+                let params = self
+                    .next(&mut it, span)?
+                    .children()
+                    .map(|q| self.name(q))
+                    .collect();
+                let (mut doc, mut body) = (Doc::default(), None);
+                for q in it {
+                    match q.as_rule() {
+                        Rule::unit => doc.unit = Some(Self::unit(q)),
+                        Rule::expr => body = Some(self.expr(q)?),
+                        Rule::description => doc.description = Some(Self::string(q)),
+                        _ => {}
+                    }
+                }
+                Stmt::Function {
+                    name,
+                    params,
+                    body: body.ok_or_else(|| self.internal(span))?,
+                    doc,
                 }
             }
             Rule::drop_stmt => {
@@ -484,6 +517,38 @@ impl Builder {
                 let inner = self.next(&mut p.children(), span)?;
                 self.expr(inner)
             }
+            Rule::disjunction | Rule::conjunction => {
+                let op = if p.as_rule() == Rule::disjunction {
+                    BinaryOp::Or
+                } else {
+                    BinaryOp::And
+                };
+                let mut it = p.children();
+                let mut lhs = self.expr(self.next(&mut it, span)?)?;
+                for q in it {
+                    let rhs = self.expr(q)?;
+                    let s = lhs.span().to(rhs.span());
+                    lhs = Expr::Binary(op, Box::new(lhs), Box::new(rhs), s);
+                }
+                Ok(lhs)
+            }
+            Rule::negation => {
+                let mut nots = 0;
+                let mut last = None;
+                // `children` leaves out keyword tokens; here they are the data.
+                for q in p.into_inner() {
+                    if q.as_rule() == Rule::kw_not {
+                        nots += 1;
+                    } else {
+                        last = Some(q);
+                    }
+                }
+                let mut e = self.expr(last.ok_or_else(|| self.internal(span))?)?;
+                for _ in 0..nots {
+                    e = Expr::Not(Box::new(e), span);
+                }
+                Ok(e)
+            }
             Rule::comparison | Rule::sum | Rule::product => {
                 let mut it = p.children();
                 let mut lhs = self.expr(self.next(&mut it, span)?)?;
@@ -497,6 +562,8 @@ impl Builder {
                         "<" => BinaryOp::Lt,
                         "<=" => BinaryOp::Le,
                         ">" => BinaryOp::Gt,
+                        "==" => BinaryOp::Eq,
+                        "!=" => BinaryOp::Ne,
                         _ => BinaryOp::Ge,
                     };
                     let s = lhs.span().to(rhs.span());

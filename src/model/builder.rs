@@ -152,6 +152,7 @@ impl ModelBuilder {
             info: info(name),
             column: column.map(str::to_string),
             value,
+            clock: false,
         });
         self.slot(name, Slot::Disturbance(self.disturbances.len() - 1))
     }
@@ -390,6 +391,7 @@ impl ModelBuilder {
             soft: self.soft,
             uncertainty: Uncertainty::default(),
             warnings: Vec::new(),
+            origins: Default::default(),
         })
     }
 }

@@ -45,9 +45,16 @@ pub fn discretize(graph: &mut Graph, model: &Model) -> Vec<NodeId> {
     let nx = layout.nx;
     let h = model.sample_period / model.substeps as f64;
     let identity: Vec<NodeId> = (0..layout.n_all()).map(|i| graph.var(i)).collect();
-    let f_at = |graph: &mut Graph, x: &[NodeId]| -> Vec<NodeId> {
+    // The clock, if the model has one, reads its time at the start of the step and is
+    // advanced to each stage's own time.
+    let clock = model.clock().map(|i| layout.d(i));
+    let f_at = |graph: &mut Graph, x: &[NodeId], elapsed: f64| -> Vec<NodeId> {
         let mut repl = identity.clone();
         repl[..nx].copy_from_slice(x);
+        if let Some(c) = clock {
+            let offset = graph.constant(elapsed);
+            repl[c] = graph.add(identity[c], offset);
+        }
         graph.substitute(&model.derivatives, &repl)
     };
     let axpy = |graph: &mut Graph, x: &[NodeId], a: f64, k: &[NodeId]| -> Vec<NodeId> {
@@ -60,20 +67,21 @@ pub fn discretize(graph: &mut Graph, model: &Model) -> Vec<NodeId> {
             .collect()
     };
     let mut x: Vec<NodeId> = identity[..nx].to_vec();
-    for _ in 0..model.substeps {
+    for sub in 0..model.substeps {
+        let t = sub as f64 * h;
         x = match model.integrator {
             Integrator::Euler => {
-                let k1 = f_at(graph, &x);
+                let k1 = f_at(graph, &x, t);
                 axpy(graph, &x, h, &k1)
             }
             Integrator::Rk4 => {
-                let k1 = f_at(graph, &x);
+                let k1 = f_at(graph, &x, t);
                 let x2 = axpy(graph, &x, h / 2.0, &k1);
-                let k2 = f_at(graph, &x2);
+                let k2 = f_at(graph, &x2, t + h / 2.0);
                 let x3 = axpy(graph, &x, h / 2.0, &k2);
-                let k3 = f_at(graph, &x3);
+                let k3 = f_at(graph, &x3, t + h / 2.0);
                 let x4 = axpy(graph, &x, h, &k3);
-                let k4 = f_at(graph, &x4);
+                let k4 = f_at(graph, &x4, t + h);
                 (0..nx)
                     .map(|i| {
                         let k23 = graph.add(k2[i], k3[i]);

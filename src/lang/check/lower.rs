@@ -5,7 +5,7 @@
 //! of lets (each lowered where it is first used) nor a deep expression can overflow the
 //! call stack, whatever the model.
 
-use super::{Checker, Context, Derived, Symbol};
+use super::{Checker, Context, Derived, Scope, Symbol};
 use crate::graph::{NodeId, Op};
 use crate::lang::ast::*;
 use crate::lang::diagnostic::{did_you_mean, Diagnostic};
@@ -30,6 +30,11 @@ enum Task<'e> {
     Use(Derivable, Span),
     /// The value on top of the stack is now lowered: remember it for the let or output.
     Finish(Derivable),
+    /// A call of a `fn`, its arguments on top of the stack: lower its body with its
+    /// parameters bound to them.
+    Inline(&'e Expr, Context),
+    /// The body of a function (or a let or output) is lowered: leave its scope.
+    EndScope,
 }
 
 impl<'d> Checker<'d> {
@@ -52,8 +57,10 @@ impl<'d> Checker<'d> {
         let errors_before = self.diags.iter().filter(|d| d.is_error()).count();
         let n = self.lower(e, Context::Constant);
         let new_errors = self.diags.iter().filter(|d| d.is_error()).count() > errors_before;
+        // A value left out of a reported cycle (E026) is NaN; its uses need no second error.
+        let cycle_reported = self.diags.iter().any(|d| d.code == "E026");
         match self.graph.as_constant(n) {
-            Some(v) if !v.is_finite() && !new_errors => {
+            Some(v) if !v.is_finite() && !new_errors && !(v.is_nan() && cycle_reported) => {
                 self.diags.push(
                     Diagnostic::error("E022", e.span(), format!("{what} evaluates to {v}"))
                         .label("not a finite number")
@@ -106,6 +113,10 @@ impl<'d> Checker<'d> {
                     let node = self.pop(&mut values);
                     *self.slot(which) = Derived::Done(node);
                     values.push(node);
+                }
+                Task::Inline(e, ctx) => self.inline(e, ctx, &mut tasks, &mut values),
+                Task::EndScope => {
+                    self.scopes.pop();
                 }
             }
         }
@@ -162,7 +173,13 @@ impl<'d> Checker<'d> {
                 values.push(nan);
             }
             Derived::Pending(expr) => {
+                // A let sees the model's names only, wherever it is first used.
+                self.scopes.push(Scope {
+                    function: None,
+                    bindings: Vec::new(),
+                });
                 tasks.push(Task::Finish(which));
+                tasks.push(Task::EndScope);
                 tasks.push(Task::Visit(expr, Context::Dynamics));
             }
         }
@@ -185,9 +202,17 @@ impl<'d> Checker<'d> {
                 Err(which) => return tasks.push(Task::Use(which, n.span)),
             },
             Expr::Next(n, span) => self.next(n, *span, ctx),
-            Expr::Neg(a, _) => {
+            Expr::Neg(a, _) | Expr::Not(a, _) => {
                 tasks.push(Task::Build(e));
                 return tasks.push(Task::Visit(a, ctx));
+            }
+            Expr::Call(f, args, span) if self.functions.contains_key(f.text.as_str()) => {
+                if self.user_call(f, args.len(), *span) {
+                    tasks.push(Task::Inline(e, ctx));
+                    tasks.extend(args.iter().rev().map(|a| Task::Visit(a, ctx)));
+                    return;
+                }
+                self.graph.constant(f64::NAN)
             }
             Expr::Binary(_, a, b, _) => {
                 tasks.push(Task::Build(e));
@@ -206,12 +231,23 @@ impl<'d> Checker<'d> {
         values.push(leaf);
     }
 
-    /// Applies an expression's operation to the values of its parts (on top of the stack).
+    /// Applies an expression's operation to the values of its parts (on top of the stack),
+    /// and records where the resulting node was written if it is new.
     fn build(&mut self, e: &Expr, values: &mut Vec<NodeId>) -> NodeId {
+        let node = self.build_node(e, values);
+        self.origins.entry(node).or_insert(e.span());
+        node
+    }
+
+    fn build_node(&mut self, e: &Expr, values: &mut Vec<NodeId>) -> NodeId {
         match e {
             Expr::Neg(..) => {
                 let a = self.pop(values);
                 self.graph.neg(a)
+            }
+            Expr::Not(..) => {
+                let a = self.pop(values);
+                self.graph.apply(Op::Not, &[a])
             }
             Expr::Binary(op, ..) => {
                 let y = self.pop(values);
@@ -226,6 +262,10 @@ impl<'d> Checker<'d> {
                     BinaryOp::Le => Op::Le,
                     BinaryOp::Gt => Op::Gt,
                     BinaryOp::Ge => Op::Ge,
+                    BinaryOp::Eq => Op::Eq,
+                    BinaryOp::Ne => Op::Ne,
+                    BinaryOp::And => Op::And,
+                    BinaryOp::Or => Op::Or,
                 };
                 self.graph.apply(op, &[x, y])
             }
@@ -238,6 +278,73 @@ impl<'d> Checker<'d> {
             },
             Expr::Number(..) | Expr::Name(_) | Expr::Next(..) => self.graph.constant(f64::NAN),
         }
+    }
+
+    /// Whether a call of the `fn` named `f` with `arity` arguments can be inlined: the
+    /// right number of arguments, and not a call of a function from its own body.
+    fn user_call(&mut self, f: &Name, arity: usize, span: Span) -> bool {
+        self.used.insert(format!("fn {}", f.text));
+        let Some(def) = self.functions.get(f.text.as_str()) else {
+            return false;
+        };
+        let (expected, declared) = (def.params.len(), def.name.span);
+        if self
+            .scopes
+            .iter()
+            .any(|s| s.function.as_deref() == Some(f.text.as_str()))
+        {
+            self.diags.push(
+                Diagnostic::error("E025", f.span, format!("`{}` calls itself", f.text))
+                    .label("called again inside its own body")
+                    .related(declared, "declared here")
+                    .help("functions are inlined where they are called, so they cannot recurse; write the repetition out"),
+            );
+            return false;
+        }
+        if arity != expected {
+            let params: Vec<&str> = def.params.iter().map(|p| p.text.as_str()).collect();
+            self.diags.push(
+                Diagnostic::error(
+                    "E011",
+                    span,
+                    format!(
+                        "`{}` takes {expected} argument{}, not {arity}",
+                        f.text,
+                        if expected == 1 { "" } else { "s" },
+                    ),
+                )
+                .label("wrong number of arguments")
+                .related(declared, "declared here")
+                .help(format!("write `{}({})`", f.text, params.join(", "))),
+            );
+            return false;
+        }
+        true
+    }
+
+    /// Starts lowering the body of a called `fn` with its parameters bound to the
+    /// arguments' nodes (on top of the stack).
+    fn inline<'e>(
+        &mut self,
+        e: &'e Expr,
+        ctx: Context,
+        tasks: &mut Vec<Task<'e>>,
+        values: &mut Vec<NodeId>,
+    ) where
+        'd: 'e,
+    {
+        let Expr::Call(f, args, _) = e else { return };
+        let Some(def) = self.functions.get(f.text.as_str()) else {
+            return values.push(self.graph.constant(f64::NAN));
+        };
+        let (params, body) = (def.params, def.body);
+        let nodes = values.split_off(values.len().saturating_sub(args.len()));
+        self.scopes.push(Scope {
+            function: Some(f.text.clone()),
+            bindings: params.iter().map(|p| p.text.clone()).zip(nodes).collect(),
+        });
+        tasks.push(Task::EndScope);
+        tasks.push(Task::Visit(body, ctx));
     }
 
     /// `next(n)`: the state after the step, in stage terms only.
@@ -318,6 +425,11 @@ impl<'d> Checker<'d> {
 
     /// The node a name stands for, or the let or output that must be lowered for it.
     fn name(&mut self, n: &Name, ctx: Context) -> Result<NodeId, Derivable> {
+        if let Some(scope) = self.scopes.last() {
+            if let Some((_, node)) = scope.bindings.iter().find(|(p, _)| *p == n.text) {
+                return Ok(*node);
+            }
+        }
         let Some((symbol, _)) = self.symbols.get(&n.text).copied() else {
             self.unknown(n);
             return Ok(self.graph.constant(f64::NAN));

@@ -6,6 +6,7 @@
 //! constant settings (bounds, rates, bands, `sample`, `uncertainty`) in `settings.rs`.
 
 mod lower;
+mod order;
 mod settings;
 
 use lower::Derivable;
@@ -53,6 +54,23 @@ enum Derived<'d> {
     Done(NodeId),
 }
 
+/// A `fn` declaration, inlined wherever it is called.
+struct FunctionDef<'d> {
+    name: &'d Name,
+    params: &'d [Name],
+    body: &'d Expr,
+}
+
+/// The names visible while lowering: a function's parameters bound to the nodes of its
+/// arguments, or no extra names (a let or output lowered inside a call sees only the
+/// model's names).
+struct Scope {
+    /// The function whose body is being lowered (`None` for a let or output).
+    function: Option<String>,
+    /// Its parameters' names and nodes.
+    bindings: Vec<(String, NodeId)>,
+}
+
 /// The checker's state; `'d` is the life of the collected declarations, whose lets and
 /// outputs it lowers on first use.
 struct Checker<'d> {
@@ -64,6 +82,10 @@ struct Checker<'d> {
     used: HashSet<String>,
     layout: Layout,
     param_values: Vec<f64>,
+    functions: HashMap<&'d str, FunctionDef<'d>>,
+    scopes: Vec<Scope>,
+    /// Where each node was first written (the model's `origins`).
+    origins: HashMap<NodeId, Span>,
 }
 
 /// Checks the statements of a loaded model; `diags` are those of loading and parsing.
@@ -87,6 +109,9 @@ pub(crate) fn check(
             np: 0,
         },
         param_values: Vec::new(),
+        functions: HashMap::new(),
+        scopes: Vec::new(),
+        origins: HashMap::new(),
     };
     let model = c.run(&decls);
     let errors = c.diags.iter().any(Diagnostic::is_error);
@@ -159,35 +184,8 @@ impl<'d> Checker<'d> {
                 _ => {}
             }
         }
-        let mut param_decls = Vec::new();
-        // Parameters: values are constant expressions over earlier parameters.
-        for s in &d.items {
-            if let Stmt::Param {
-                name,
-                kind,
-                value,
-                doc,
-            } = &s.stmt
-            {
-                let v = self
-                    .constant(value, "a parameter value")
-                    .unwrap_or(f64::NAN);
-                if *kind == ParamKind::Constant {
-                    self.declare(name, Symbol::Const(v));
-                } else {
-                    self.declare(name, Symbol::Param(self.param_values.len()));
-                    self.param_values.push(v);
-                }
-                param_decls.push((
-                    ParamDecl {
-                        info: info(name, doc),
-                        value: v,
-                        kind: *kind,
-                    },
-                    s.span,
-                ));
-            }
-        }
+        self.declare_functions(d);
+        let param_decls = self.params(d);
         let consts: Vec<(String, f64, Span)> = param_decls
             .iter()
             .filter(|(p, _)| p.kind == ParamKind::Constant)
@@ -240,13 +238,17 @@ impl<'d> Checker<'d> {
                     name,
                     column,
                     value,
+                    clock,
                     doc,
                 } => Some(DisturbanceDecl {
                     info: info(name, doc),
-                    column: column.clone(),
+                    column: column
+                        .clone()
+                        .or_else(|| clock.then(|| CLOCK_COLUMN.to_string())),
                     value: value
                         .as_ref()
                         .and_then(|v| self.constant(v, "a disturbance value")),
+                    clock: *clock,
                 }),
                 _ => None,
             })
@@ -332,6 +334,8 @@ impl<'d> Checker<'d> {
                 self.derived(Derivable::Let(i), span);
             }
         }
+        self.check_unused_functions();
+        self.check_clocks(&dists);
         let (sample_period, integrator, substeps) = self.sample(d.sample.as_ref());
         let uncertainty = self.uncertainty(d.uncertainty.as_ref());
         self.warn_unused(&param_decls, &consts, &dists, &inputs);
@@ -362,7 +366,175 @@ impl<'d> Checker<'d> {
             soft,
             uncertainty,
             warnings: Vec::new(),
+            origins: std::mem::take(&mut self.origins),
         })
+    }
+
+    /// Records the `fn` declarations (lowered where they are called).
+    fn declare_functions(&mut self, d: &'d Decls) {
+        for s in &d.items {
+            let Stmt::Function {
+                name, params, body, ..
+            } = &s.stmt
+            else {
+                continue;
+            };
+            if Op::from_function(&name.text).is_some() || name.text == "next" {
+                self.diags.push(
+                    Diagnostic::error(
+                        "E004",
+                        name.span,
+                        format!("`{}` is a built-in function", name.text),
+                    )
+                    .label("reserved")
+                    .help("choose another name for the function"),
+                );
+                continue;
+            }
+            for (i, p) in params.iter().enumerate() {
+                if let Some(first) = params[..i].iter().find(|q| q.text == p.text) {
+                    self.diags.push(
+                        Diagnostic::error(
+                            "E025",
+                            p.span,
+                            format!("parameter `{}` of `{}` is named twice", p.text, name.text),
+                        )
+                        .label("named again here")
+                        .related(first.span, "first named here")
+                        .help("give each parameter of a function its own name"),
+                    );
+                }
+            }
+            self.functions
+                .insert(name.text.as_str(), FunctionDef { name, params, body });
+        }
+    }
+
+    /// Parameters and constants, evaluated in dependency order and declared; the
+    /// parameters keep their declaration order in the layout. Returns every `param` and
+    /// `const` declaration in declaration order, with the statement's span.
+    fn params(&mut self, d: &'d Decls) -> Vec<(ParamDecl, Span)> {
+        let stmts: Vec<&'d Statement> = d
+            .items
+            .iter()
+            .filter(|s| matches!(s.stmt, Stmt::Param { .. }))
+            .collect();
+        let named: Vec<(&'d Name, &'d Expr)> = stmts
+            .iter()
+            .filter_map(|s| match &s.stmt {
+                Stmt::Param { name, value, .. } => Some((name, value)),
+                _ => None,
+            })
+            .collect();
+        // The layout index of each `param`, in declaration order.
+        let mut index = Vec::with_capacity(stmts.len());
+        for s in &stmts {
+            let plain = matches!(&s.stmt, Stmt::Param { kind, .. } if *kind != ParamKind::Constant);
+            index.push(plain.then(|| {
+                self.param_values.push(f64::NAN);
+                self.param_values.len() - 1
+            }));
+        }
+        let (order, cyclic) = self.evaluation_order(&named);
+        let mut values = vec![f64::NAN; stmts.len()];
+        // Members of a cycle are declared without a value, so that their uses do not
+        // report them as unknown too.
+        let mut in_cycle = vec![false; stmts.len()];
+        for &k in &cyclic {
+            in_cycle[k] = true;
+        }
+        let cyclic = (0..stmts.len()).filter(|&k| in_cycle[k]);
+        for k in cyclic.chain(order) {
+            let Stmt::Param { name, value, .. } = &stmts[k].stmt else {
+                continue;
+            };
+            if in_cycle[k] {
+                // Named in the cycle's error: not reported again as unused.
+                self.used.insert(name.text.clone());
+            }
+            let v = if !in_cycle[k] {
+                self.constant(value, "a parameter value")
+                    .unwrap_or(f64::NAN)
+            } else {
+                f64::NAN
+            };
+            values[k] = v;
+            match index[k] {
+                Some(i) => {
+                    self.param_values[i] = v;
+                    self.declare(name, Symbol::Param(i));
+                }
+                None => self.declare(name, Symbol::Const(v)),
+            }
+        }
+        stmts
+            .iter()
+            .zip(values)
+            .filter_map(|(s, value)| match &s.stmt {
+                Stmt::Param {
+                    name, kind, doc, ..
+                } => Some((
+                    ParamDecl {
+                        info: info(name, doc),
+                        value,
+                        kind: *kind,
+                    },
+                    s.span,
+                )),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// Lowers the functions never called, so that their errors are reported, and warns.
+    fn check_unused_functions(&mut self) {
+        let mut unused: Vec<(&'d Name, &'d [Name], &'d Expr)> = self
+            .functions
+            .values()
+            .filter(|f| !self.used.contains(&format!("fn {}", f.name.text)))
+            .map(|f| (f.name, f.params, f.body))
+            .collect();
+        unused.sort_by_key(|(n, ..)| n.span.start);
+        for (name, params, body) in unused {
+            let nan = self.graph.constant(f64::NAN);
+            self.scopes.push(Scope {
+                function: Some(name.text.clone()),
+                bindings: params.iter().map(|p| (p.text.clone(), nan)).collect(),
+            });
+            self.lower(body, Context::Stage);
+            self.scopes.pop();
+            self.diags.push(
+                Diagnostic::warning(
+                    "W001",
+                    name.span,
+                    format!("function `{}` is never called", name.text),
+                )
+                .label("unused")
+                .help("remove it, or call it in an equation"),
+            );
+        }
+    }
+
+    /// At most one `clock`.
+    fn check_clocks(&mut self, dists: &[DisturbanceDecl]) {
+        let clocks: Vec<&DisturbanceDecl> = dists.iter().filter(|d| d.clock).collect();
+        if let [first, second, ..] = clocks[..] {
+            if let (Some(at), Some(before)) = (second.info.span, first.info.span) {
+                self.diags.push(
+                    Diagnostic::error(
+                        "E027",
+                        at,
+                        format!("`{}` is a second clock", second.info.name),
+                    )
+                    .label("second `clock`")
+                    .related(
+                        before,
+                        format!("`{}` is the model's clock", first.info.name),
+                    )
+                    .help("a model has one clock; derive other times from it with `let`"),
+                );
+            }
+        }
     }
     fn warn_unused(
         &mut self,

@@ -48,6 +48,7 @@ pub use builtin::builtin_season;
 pub use csv_columns::load_csv;
 pub use knmi::load_knmi;
 
+use crate::lang::model::CLOCK_COLUMN;
 use std::path::{Path, PathBuf};
 
 // Canonical column names every source produces (model units).
@@ -285,7 +286,14 @@ impl WeatherFrame {
         start_row: usize,
         steps: usize,
     ) -> Result<Weather, WeatherError> {
-        let idx = positions(Path::new(&self.source), &self.columns, wanted)?;
+        // The clock's column counts rows times the period where the source has none.
+        let clock_made = |w: &String| w == CLOCK_COLUMN && !self.columns.contains(w);
+        let present: Vec<String> = wanted.iter().filter(|w| !clock_made(w)).cloned().collect();
+        let mut found = positions(Path::new(&self.source), &self.columns, &present)?.into_iter();
+        let idx: Vec<Option<usize>> = wanted
+            .iter()
+            .map(|w| if clock_made(w) { None } else { found.next() })
+            .collect();
         let needed = start_row.saturating_add(steps);
         if needed > self.rows() {
             let (source, available) = (self.source.clone(), self.rows());
@@ -296,9 +304,14 @@ impl WeatherFrame {
             });
         }
         let w = self.columns.len();
+        let period = self.period_s;
         let data = self.data[start_row * w..needed * w]
             .chunks_exact(w)
-            .flat_map(|r| idx.iter().map(move |&c| r[c]))
+            .enumerate()
+            .flat_map(|(k, r)| {
+                let time = (start_row + k) as f64 * period;
+                idx.iter().map(move |c| c.map_or(time, |c| r[c]))
+            })
             .collect();
         Weather::new(self.source.clone(), self.period_s, wanted.to_vec(), data)
     }
