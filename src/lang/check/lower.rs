@@ -58,9 +58,9 @@ impl<'d> Checker<'d> {
         let n = self.lower(e, Context::Constant);
         let new_errors = self.diags.iter().filter(|d| d.is_error()).count() > errors_before;
         // A value left out of a reported cycle (E026) is NaN; its uses need no second error.
-        let cycle_reported = self.diags.iter().any(|d| d.code == "E026");
+        let left_out = |v: f64| v.is_nan() && self.diags.iter().any(|d| d.code == "E026");
         match self.graph.as_constant(n) {
-            Some(v) if !v.is_finite() && !new_errors && !(v.is_nan() && cycle_reported) => {
+            Some(v) if !v.is_finite() && !new_errors && !left_out(v) => {
                 self.diags.push(
                     Diagnostic::error("E022", e.span(), format!("{what} evaluates to {v}"))
                         .label("not a finite number")
