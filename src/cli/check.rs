@@ -1,8 +1,10 @@
 //! `ghm check`: parse, check, summarise, and optionally verify derivatives.
 
 use crate::cli::CliError;
-use crate::graph::Sparsity;
+use crate::graph::{Op, Sparsity};
 use crate::job::load_model;
+use crate::lang::diagnostic::{render, Diagnostic};
+use crate::model::singular::singularities;
 use crate::model::verify::{verify_step_derivatives, Entry, NonFiniteEntry};
 use crate::model::Plant;
 use crate::sim::weather::builtin_season;
@@ -113,6 +115,7 @@ pub fn run(args: &CheckArgs) -> Result<(), CliError> {
         sp.hessian.len(),
         wrt.len() * (wrt.len() + 1) / 2
     );
+    warn_singularities(&plant);
     if args.verify_derivatives {
         if args.points > MAX_POINTS {
             return Err(CliError::Argument(format!(
@@ -138,6 +141,44 @@ pub fn run(args: &CheckArgs) -> Result<(), CliError> {
         println!("  derivatives OK (≤ 1e-6)");
     }
     Ok(())
+}
+
+/// Warns (W002) at each expression whose value or exact derivative is not finite at the
+/// initial state and start input (weather from the built-in season's first row).
+fn warn_singularities(plant: &Plant) {
+    let Some(mut point) = sample_points(plant, 0).into_iter().next() else {
+        return;
+    };
+    point.extend(plant.model.states.iter().map(|s| s.initial));
+    let found = singularities(&plant.model, &point);
+    let warnings: Vec<Diagnostic> = found
+        .iter()
+        .filter_map(|s| {
+            let what = match s.partial {
+                Some(p) => format!("its derivative is {p} at the initial state (value {})", s.value),
+                None => format!("its value is {} at the initial state", s.value),
+            };
+            let op = match s.op {
+                Op::Powf(bits) => format!("the power ^{}", f64::from_bits(bits)),
+                Op::Powi(n) => format!("the power ^{n}"),
+                op => format!("`{}`", format!("{op:?}").to_lowercase()),
+            };
+            Some(
+                Diagnostic::warning("W002", s.span?, format!("{op} here is singular: {what}"))
+                    .label("not differentiable here")
+                    .help("an optimiser needs finite derivatives: smooth it (e.g. `0.5 + 0.5 * tanh(z / 2)` for a logistic switch, `sqrt(x^2 + eps^2)` for `abs(x)`), or keep the state away from this point"),
+            )
+        })
+        .collect();
+    if !warnings.is_empty() {
+        eprint!("{}", render(&plant.model.sources, &warnings));
+    }
+    let unplaced = found.len() - warnings.len();
+    if unplaced > 0 {
+        eprintln!(
+            "warning: {unplaced} operation(s) of the model are singular at the initial state"
+        );
+    }
 }
 
 /// "at the initial point, ∂(state `x` after the step)/∂(input `u`) is NaN; ...".

@@ -12,6 +12,7 @@
 mod builder;
 pub mod finite;
 mod penalty;
+pub mod singular;
 pub mod verify;
 
 pub use crate::lang::model::{Layout, SoftBand};
