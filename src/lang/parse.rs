@@ -532,23 +532,7 @@ impl Builder {
                 }
                 Ok(lhs)
             }
-            Rule::negation => {
-                let mut nots = 0;
-                let mut last = None;
-                // `children` leaves out keyword tokens; here they are the data.
-                for q in p.into_inner() {
-                    if q.as_rule() == Rule::kw_not {
-                        nots += 1;
-                    } else {
-                        last = Some(q);
-                    }
-                }
-                let mut e = self.expr(last.ok_or_else(|| self.internal(span))?)?;
-                for _ in 0..nots {
-                    e = Expr::Not(Box::new(e), span);
-                }
-                Ok(e)
-            }
+            Rule::negation => self.prefixed(p, Rule::kw_not, Expr::Not),
             Rule::comparison | Rule::sum | Rule::product => {
                 let mut it = p.children();
                 let mut lhs = self.expr(self.next(&mut it, span)?)?;
@@ -571,22 +555,7 @@ impl Builder {
                 }
                 Ok(lhs)
             }
-            Rule::unary => {
-                let mut negs = 0;
-                let mut last = None;
-                for q in p.children() {
-                    if q.as_rule() == Rule::neg {
-                        negs += 1;
-                    } else {
-                        last = Some(q);
-                    }
-                }
-                let mut e = self.expr(last.ok_or_else(|| self.internal(span))?)?;
-                for _ in 0..negs {
-                    e = Expr::Neg(Box::new(e), span);
-                }
-                Ok(e)
-            }
+            Rule::unary => self.prefixed(p, Rule::neg, Expr::Neg),
             Rule::power => {
                 let mut it = p.children();
                 let base = self.expr(self.next(&mut it, span)?)?;
@@ -623,6 +592,31 @@ impl Builder {
             }
             _ => Err(self.internal(span)),
         }
+    }
+
+    /// `not not a`, `--a`: the operand wrapped once per `prefix` token before it, each
+    /// wrapper spanning the whole prefixed expression.
+    fn prefixed(
+        &self,
+        p: Pair<Rule>,
+        prefix: Rule,
+        wrap: fn(Box<Expr>, Span) -> Expr,
+    ) -> Built<Expr> {
+        let span = self.span(&p);
+        let (mut count, mut operand) = (0, None);
+        // Not `children`: it leaves out keyword tokens, and here they are the data.
+        for q in p.into_inner() {
+            if q.as_rule() == prefix {
+                count += 1;
+            } else {
+                operand = Some(q);
+            }
+        }
+        let mut e = self.expr(operand.ok_or_else(|| self.internal(span))?)?;
+        for _ in 0..count {
+            e = wrap(Box::new(e), span);
+        }
+        Ok(e)
     }
 
     fn next<'i>(
