@@ -11,9 +11,27 @@ fn plant(file: &str) -> Arc<Plant> {
     Arc::new(Plant::new(model))
 }
 
+/// The lettuce model integrated by an implicit method instead of RK4.
+fn implicit_lettuce(integrator: &str) -> Arc<Plant> {
+    let text = std::fs::read_to_string("models/lettuce.ghm").unwrap();
+    let rk4 = "integrator rk4 substeps 4";
+    assert!(
+        text.contains(rk4),
+        "models/lettuce.ghm's sample statement changed"
+    );
+    let text = text.replace(rk4, &format!("integrator {integrator} substeps 1"));
+    let model =
+        ghm::lang::load_str("lettuce.ghm", &text).unwrap_or_else(|e| panic!("{}", e.render()));
+    Arc::new(Plant::new(model))
+}
+
 /// A point away from the bounds, with every soft band active somewhere.
 fn problem(horizon: usize) -> (Ocp, Vec<f64>, Vec<f64>) {
-    let plant = plant("models/lettuce.ghm");
+    problem_with(plant("models/lettuce.ghm"), horizon)
+}
+
+/// [`problem`] with another lettuce plant.
+fn problem_with(plant: Arc<Plant>, horizon: usize) -> (Ocp, Vec<f64>, Vec<f64>) {
     let mut ocp = Ocp::new(plant.clone(), horizon).unwrap();
     let nd = plant.layout.nd;
     let forecast: Vec<f64> = (0..horizon)
@@ -78,7 +96,20 @@ const HESSIAN_TOL: (f64, f64) = (1e-4, 1e-3);
 
 #[test]
 fn gradient_and_jacobian_match_central_differences() {
-    let (mut ocp, x, _) = problem(3);
+    first_derivatives_match_central_differences(problem(3));
+}
+
+/// The implicit function theorem's derivatives of a Radau IIA step, through the whole
+/// transcription.
+#[test]
+fn implicit_steps_give_derivatives_that_match_central_differences() {
+    for integrator in ["radau5", "sdirk3"] {
+        first_derivatives_match_central_differences(problem_with(implicit_lettuce(integrator), 3));
+        hessian_matches(problem_with(implicit_lettuce(integrator), 3));
+    }
+}
+
+fn first_derivatives_match_central_differences((mut ocp, x, _): (Ocp, Vec<f64>, Vec<f64>)) {
     let (n, m) = (ocp.n_vars(), ocp.n_cons());
     let mut grad = vec![0.0; n];
     ocp.gradient(&x, &mut grad);
@@ -106,7 +137,10 @@ fn gradient_and_jacobian_match_central_differences() {
 
 #[test]
 fn hessian_matches_differences_of_the_lagrangian_gradient() {
-    let (mut ocp, x, lambda) = problem(3);
+    hessian_matches(problem(3));
+}
+
+fn hessian_matches((mut ocp, x, lambda): (Ocp, Vec<f64>, Vec<f64>)) {
     let n = ocp.n_vars();
     let sigma = 0.7;
     let pattern = ocp.hessian_pattern().clone();

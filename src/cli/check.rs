@@ -88,8 +88,10 @@ pub fn run(args: &CheckArgs) -> Result<(), CliError> {
         ))
     );
     println!(
-        "  sample period {} s, {:?} with {} sub-step(s)",
-        m.sample_period, m.integrator, m.substeps
+        "  sample period {} s, {} with {} sub-step(s)",
+        m.sample_period,
+        m.integrator.name(),
+        m.substeps
     );
     let roots: Vec<_> = plant
         .next_state
@@ -106,8 +108,15 @@ pub fn run(args: &CheckArgs) -> Result<(), CliError> {
     );
     let tape = plant.step_tape();
     let wrt: Vec<usize> = (0..l.nx + l.nu).collect();
-    let sp = Sparsity::of(tape, &wrt);
-    println!(
+    if plant.is_implicit() {
+        println!(
+            "  implicit step: stage equations and outputs on one tape of {} instructions, \
+             solved by Newton; exact derivatives by the implicit function theorem",
+            tape.n_instructions()
+        );
+    } else {
+        let sp = Sparsity::of(tape, &wrt);
+        println!(
         "  step tape: {} instructions; Jacobian wrt (x, u): {} of {} entries non-zero; Hessian: {} of {} lower-triangle entries",
         tape.n_instructions(),
         sp.jacobian_nnz(),
@@ -115,6 +124,7 @@ pub fn run(args: &CheckArgs) -> Result<(), CliError> {
         sp.hessian.len(),
         wrt.len() * (wrt.len() + 1) / 2
     );
+    }
     warn_singularities(&plant);
     if args.verify_derivatives {
         if args.points > MAX_POINTS {

@@ -127,13 +127,64 @@ pub struct SoftBand {
     pub description: String,
 }
 
-/// How the integrator discretises `ẋ = f` over one sample period.
+/// How the integrator discretises `ẋ = f` over one sample period (or sub-step).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Integrator {
     /// Classical fourth-order Runge–Kutta (`integrator rk4`, the default).
     Rk4,
     /// Explicit Euler (`integrator euler`).
     Euler,
+    /// Radau IIA with three stages, order 5, L-stable (`integrator radau5`): for stiff models.
+    Radau5,
+    /// Radau IIA with two stages, order 3, L-stable (`integrator radau3`).
+    Radau3,
+    /// Backward (implicit) Euler, order 1, L-stable (`integrator backward_euler`).
+    BackwardEuler,
+    /// Alexander's three-stage singly diagonally implicit Runge–Kutta method, order 3,
+    /// L-stable and stiffly accurate (`integrator sdirk3`).
+    Sdirk3,
+}
+
+impl Integrator {
+    /// Every integrator, in the order the documentation lists them.
+    pub const ALL: [Integrator; 6] = [
+        Integrator::Rk4,
+        Integrator::Euler,
+        Integrator::Radau5,
+        Integrator::Radau3,
+        Integrator::BackwardEuler,
+        Integrator::Sdirk3,
+    ];
+
+    /// The name a model writes after `integrator`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Integrator::Rk4 => "rk4",
+            Integrator::Euler => "euler",
+            Integrator::Radau5 => "radau5",
+            Integrator::Radau3 => "radau3",
+            Integrator::BackwardEuler => "backward_euler",
+            Integrator::Sdirk3 => "sdirk3",
+        }
+    }
+
+    /// The integrator a model names, if there is one by that name.
+    ///
+    /// ```
+    /// use ghm::lang::model::Integrator;
+    /// assert_eq!(Integrator::from_name("radau5"), Some(Integrator::Radau5));
+    /// assert!(Integrator::ALL.iter().all(|i| Integrator::from_name(i.name()) == Some(*i)));
+    /// assert_eq!(Integrator::from_name("ode45"), None);
+    /// ```
+    pub fn from_name(name: &str) -> Option<Integrator> {
+        Integrator::ALL.into_iter().find(|i| i.name() == name)
+    }
+
+    /// Whether each step solves equations in the stage values (Newton) rather than
+    /// evaluating them in turn.
+    pub fn is_implicit(self) -> bool {
+        !matches!(self, Integrator::Rk4 | Integrator::Euler)
+    }
 }
 
 /// When parametric uncertainty redraws parameters.

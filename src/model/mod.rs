@@ -11,19 +11,49 @@
 
 mod builder;
 pub mod finite;
+mod implicit;
 mod penalty;
 pub mod singular;
+mod step_derivatives;
 pub mod verify;
 
 pub use crate::lang::model::{Layout, SoftBand};
 pub use builder::{BuildError, Ex, ModelBuilder};
 pub use penalty::{band_penalty, StagePenalty};
+pub use step_derivatives::StepDerivatives;
 
 use crate::graph::{Graph, NodeId, Tape, Workspace};
 use crate::lang::ast::TermKind;
 use crate::lang::model::{Integrator, Model};
+use implicit::{ImplicitStep, ImplicitWorkspace, Tableau};
 
-/// Builds the discrete step `x⁺ = F(x, u, d, p)` as graph nodes over the base variables.
+/// The discrete step as graph nodes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DiscreteStep {
+    /// `x⁺`: expressions over `(x, u, d, p)` for an explicit integrator; for an implicit
+    /// one, the variables of the last stage.
+    pub next_state: Vec<NodeId>,
+    /// For an implicit integrator, the stage equations `G(z, W) = 0` that define the stage
+    /// values `W` (variables numbered from [`Layout::n_all`] on); empty for explicit ones.
+    pub residuals: Vec<NodeId>,
+}
+
+/// The right-hand side `f` at states `x`, `elapsed` seconds into the step: the clock, if the
+/// model has one, reads its time at the start of the step and is advanced to each stage's
+/// own time.
+pub(crate) fn rhs_at(graph: &mut Graph, model: &Model, x: &[NodeId], elapsed: f64) -> Vec<NodeId> {
+    let layout = model.layout();
+    let mut repl: Vec<NodeId> = (0..layout.n_all()).map(|i| graph.var(i)).collect();
+    repl[..layout.nx].copy_from_slice(x);
+    if let Some(c) = model.clock().map(|i| layout.d(i)) {
+        let offset = graph.constant(elapsed);
+        repl[c] = graph.add(repl[c], offset);
+    }
+    graph.substitute(&model.derivatives, &repl)
+}
+
+/// Builds the discrete step `x⁺ = F(x, u, d, p)` as graph nodes over the base variables:
+/// an explicit integrator unrolled, or an implicit one's stage equations.
 ///
 /// ```
 /// use ghm::model::{discretize, ModelBuilder};
@@ -36,65 +66,81 @@ use crate::lang::model::{Integrator, Model};
 /// b.sample(0.5, 1);
 /// let model = b.build().unwrap();
 /// let mut graph = model.graph.clone();
-/// let next = discretize(&mut graph, &model);
+/// let step = discretize(&mut graph, &model);
 /// let h: f64 = 0.5;
 /// let rk4 = 1.0 - h + h.powi(2) / 2.0 - h.powi(3) / 6.0 + h.powi(4) / 24.0;
-/// assert!((graph.eval_f64(&next, &[2.0])[0] - 2.0 * rk4).abs() < 1e-15);
+/// assert!((graph.eval_f64(&step.next_state, &[2.0])[0] - 2.0 * rk4).abs() < 1e-15);
+/// assert!(step.residuals.is_empty());
 /// ```
-pub fn discretize(graph: &mut Graph, model: &Model) -> Vec<NodeId> {
-    let layout = model.layout();
-    let nx = layout.nx;
-    let h = model.sample_period / model.substeps as f64;
-    let identity: Vec<NodeId> = (0..layout.n_all()).map(|i| graph.var(i)).collect();
-    // The clock, if the model has one, reads its time at the start of the step and is
-    // advanced to each stage's own time.
-    let clock = model.clock().map(|i| layout.d(i));
-    let f_at = |graph: &mut Graph, x: &[NodeId], elapsed: f64| -> Vec<NodeId> {
-        let mut repl = identity.clone();
-        repl[..nx].copy_from_slice(x);
-        if let Some(c) = clock {
-            let offset = graph.constant(elapsed);
-            repl[c] = graph.add(identity[c], offset);
+pub fn discretize(graph: &mut Graph, model: &Model) -> DiscreteStep {
+    let next_state = match model.integrator {
+        Integrator::Rk4 => unrolled(graph, model, rk4_substep),
+        Integrator::Euler => unrolled(graph, model, euler_substep),
+        Integrator::Radau5
+        | Integrator::Radau3
+        | Integrator::BackwardEuler
+        | Integrator::Sdirk3 => {
+            let tableau =
+                Tableau::of(model.integrator).expect("every implicit integrator has a tableau");
+            let w_offset = model.layout().n_all();
+            let nodes = implicit::build_nodes(graph, model, &tableau, w_offset);
+            return DiscreteStep {
+                next_state: nodes.next_state,
+                residuals: nodes.residuals,
+            };
         }
-        graph.substitute(&model.derivatives, &repl)
     };
-    let axpy = |graph: &mut Graph, x: &[NodeId], a: f64, k: &[NodeId]| -> Vec<NodeId> {
-        x.iter()
-            .zip(k)
-            .map(|(&xi, &ki)| {
-                let s = graph.scale(a, ki);
-                graph.add(xi, s)
-            })
-            .collect()
-    };
-    let mut x: Vec<NodeId> = identity[..nx].to_vec();
+    DiscreteStep {
+        next_state,
+        residuals: Vec::new(),
+    }
+}
+
+/// One explicit sub-step of length `h` from `x` at `t` seconds into the step.
+type Substep = fn(&mut Graph, &Model, &[NodeId], f64, f64) -> Vec<NodeId>;
+
+/// `x + a k`, element by element.
+fn axpy(graph: &mut Graph, x: &[NodeId], a: f64, k: &[NodeId]) -> Vec<NodeId> {
+    x.iter()
+        .zip(k)
+        .map(|(&xi, &ki)| {
+            let s = graph.scale(a, ki);
+            graph.add(xi, s)
+        })
+        .collect()
+}
+
+fn euler_substep(graph: &mut Graph, model: &Model, x: &[NodeId], t: f64, h: f64) -> Vec<NodeId> {
+    let k1 = rhs_at(graph, model, x, t);
+    axpy(graph, x, h, &k1)
+}
+
+fn rk4_substep(graph: &mut Graph, model: &Model, x: &[NodeId], t: f64, h: f64) -> Vec<NodeId> {
+    let k1 = rhs_at(graph, model, x, t);
+    let x2 = axpy(graph, x, h / 2.0, &k1);
+    let k2 = rhs_at(graph, model, &x2, t + h / 2.0);
+    let x3 = axpy(graph, x, h / 2.0, &k2);
+    let k3 = rhs_at(graph, model, &x3, t + h / 2.0);
+    let x4 = axpy(graph, x, h, &k3);
+    let k4 = rhs_at(graph, model, &x4, t + h);
+    (0..x.len())
+        .map(|i| {
+            let k23 = graph.add(k2[i], k3[i]);
+            let k23 = graph.scale(2.0, k23);
+            let s = graph.add(k1[i], k23);
+            let s = graph.add(s, k4[i]);
+            let inc = graph.scale(h / 6.0, s);
+            graph.add(x[i], inc)
+        })
+        .collect()
+}
+
+/// An explicit integrator unrolled over the model's sub-steps.
+fn unrolled(graph: &mut Graph, model: &Model, substep: Substep) -> Vec<NodeId> {
+    let h = model.sample_period / model.substeps as f64;
+    let mut x: Vec<NodeId> = (0..model.layout().nx).map(|i| graph.var(i)).collect();
     for sub in 0..model.substeps {
-        let t = sub as f64 * h;
-        x = match model.integrator {
-            Integrator::Euler => {
-                let k1 = f_at(graph, &x, t);
-                axpy(graph, &x, h, &k1)
-            }
-            Integrator::Rk4 => {
-                let k1 = f_at(graph, &x, t);
-                let x2 = axpy(graph, &x, h / 2.0, &k1);
-                let k2 = f_at(graph, &x2, t + h / 2.0);
-                let x3 = axpy(graph, &x, h / 2.0, &k2);
-                let k3 = f_at(graph, &x3, t + h / 2.0);
-                let x4 = axpy(graph, &x, h, &k3);
-                let k4 = f_at(graph, &x4, t + h);
-                (0..nx)
-                    .map(|i| {
-                        let k23 = graph.add(k2[i], k3[i]);
-                        let k23 = graph.scale(2.0, k23);
-                        let s = graph.add(k1[i], k23);
-                        let s = graph.add(s, k4[i]);
-                        let inc = graph.scale(h / 6.0, s);
-                        graph.add(x[i], inc)
-                    })
-                    .collect()
-            }
-        };
+        x = substep(graph, model, &x, sub as f64 * h, h);
     }
     x
 }
@@ -173,8 +219,24 @@ pub struct Plant {
     pub next_outputs: Vec<NodeId>,
     /// Indices into `model.terms` of the stage terms.
     pub stage_term_index: Vec<usize>,
-    step: Tape,
+    step: StepKernel,
     output: Tape,
+}
+
+/// The scratch of a [`StepKernel`].
+#[derive(Debug, Clone)]
+enum KernelWorkspace {
+    Unrolled(Workspace<f64>),
+    Implicit(Box<ImplicitWorkspace>),
+}
+
+/// How a step is computed: one tape, or Newton on stage equations.
+#[derive(Debug, Clone)]
+enum StepKernel {
+    /// An explicit integrator unrolled into one tape over `(x, u, d, p)`.
+    Unrolled(Tape),
+    /// An implicit integrator's stage equations and step outputs.
+    Implicit(Box<ImplicitStep>),
 }
 
 /// One step's results (empty buffers by default, filled by [`Plant::step_into`]).
@@ -198,7 +260,7 @@ impl StepOutcome {
 /// Reusable buffers for [`Plant::step_into`].
 #[derive(Debug, Clone)]
 pub struct StepWorkspace {
-    ws: Workspace<f64>,
+    kernel: KernelWorkspace,
     output_ws: Workspace<f64>,
     inputs: Vec<f64>,
     outputs: Vec<f64>,
@@ -209,7 +271,10 @@ impl Plant {
     pub fn new(model: Model) -> Plant {
         let layout = model.layout();
         let mut graph = model.graph.clone();
-        let next_state = discretize(&mut graph, &model);
+        let DiscreteStep {
+            next_state,
+            residuals,
+        } = discretize(&mut graph, &model);
         let mut repl: Vec<NodeId> = (0..layout.n_all()).map(|i| graph.var(i)).collect();
         for (i, &n) in next_state.iter().enumerate() {
             repl[layout.x_next(i)] = n;
@@ -233,7 +298,12 @@ impl Plant {
         let mut all = next_state.clone();
         all.extend(&stage_terms);
         all.extend(&next_outputs);
-        let step = graph.compile(&all, layout.n_base());
+        let step = match Tableau::of(model.integrator) {
+            Some(tableau) => StepKernel::Implicit(Box::new(ImplicitStep::new(
+                &graph, &model, tableau, &all, &residuals,
+            ))),
+            None => StepKernel::Unrolled(graph.compile(&all, layout.n_base())),
+        };
         let output = graph.compile(&output_nodes, layout.n_base());
         Plant {
             model,
@@ -248,9 +318,44 @@ impl Plant {
         }
     }
 
-    /// The step tape: inputs `(x, u, d, p)`, outputs `(x⁺, stage terms, y(x⁺))`.
+    /// The tape behind the step. For an explicit integrator, the step itself: inputs
+    /// `(x, u, d, p)`, outputs `(x⁺, stage terms, y(x⁺))`. For an implicit one, the step's
+    /// outputs and stage residuals `[P; G]` over `(x, u, d, p, x⁺ slots, W)`; evaluate the
+    /// step with [`eval_step`](Self::eval_step) and differentiate it with
+    /// [`StepDerivatives`].
     pub fn step_tape(&self) -> &Tape {
-        &self.step
+        match &self.step {
+            StepKernel::Unrolled(tape) => tape,
+            StepKernel::Implicit(step) => step.combined_tape(),
+        }
+    }
+
+    /// Whether each step solves stage equations (an implicit integrator).
+    pub fn is_implicit(&self) -> bool {
+        matches!(self.step, StepKernel::Implicit(_))
+    }
+
+    /// Values a step returns: `(x⁺, stage terms, y(x⁺))`.
+    pub fn n_step_outputs(&self) -> usize {
+        self.layout.nx + self.stage_terms.len() + self.next_outputs.len()
+    }
+
+    /// One step from the packed inputs `(x, u, d, p)` into `outputs` `(x⁺, terms, y(x⁺))`,
+    /// whatever the integrator; an implicit step whose Newton iteration fails gives NaN.
+    pub fn eval_step(&self, ws: &mut StepWorkspace, inputs: &[f64], outputs: &mut [f64]) {
+        match (&self.step, &mut ws.kernel) {
+            (StepKernel::Unrolled(tape), KernelWorkspace::Unrolled(scratch)) => {
+                tape.eval(scratch, inputs, outputs)
+            }
+            (StepKernel::Implicit(step), KernelWorkspace::Implicit(scratch)) => {
+                step.eval(scratch, inputs, outputs)
+            }
+            // A workspace made by another plant: made anew for this one.
+            _ => {
+                ws.kernel = self.kernel_workspace();
+                self.eval_step(ws, inputs, outputs);
+            }
+        }
     }
 
     /// The output tape: inputs `(x, u, d, p)`, outputs `y(x)`.
@@ -262,10 +367,17 @@ impl Plant {
     /// [`outputs_into`](Self::outputs_into); keep one per thread and reuse it.
     pub fn workspace(&self) -> StepWorkspace {
         StepWorkspace {
-            ws: self.step.workspace(),
+            kernel: self.kernel_workspace(),
             output_ws: self.output.workspace(),
             inputs: vec![0.0; self.layout.n_base()],
-            outputs: vec![0.0; self.step.n_outputs()],
+            outputs: vec![0.0; self.n_step_outputs()],
+        }
+    }
+
+    fn kernel_workspace(&self) -> KernelWorkspace {
+        match &self.step {
+            StepKernel::Unrolled(tape) => KernelWorkspace::Unrolled(tape.workspace()),
+            StepKernel::Implicit(step) => KernelWorkspace::Implicit(Box::new(step.workspace())),
         }
     }
 
@@ -314,7 +426,11 @@ impl Plant {
         out: &mut StepOutcome,
     ) {
         self.pack(&mut ws.inputs, x, u, d, p);
-        self.step.eval(&mut ws.ws, &ws.inputs, &mut ws.outputs);
+        let inputs = std::mem::take(&mut ws.inputs);
+        let mut outputs = std::mem::take(&mut ws.outputs);
+        self.eval_step(ws, &inputs, &mut outputs);
+        ws.inputs = inputs;
+        ws.outputs = outputs;
         let nx = self.layout.nx;
         let nt = self.stage_terms.len();
         out.next_state.clear();

@@ -2,8 +2,8 @@
 //! Hessian of `λᵀ(x⁺, stage terms)` against central finite differences, with steps scaled
 //! per variable.
 
-use crate::graph::Derivatives;
 use crate::model::Plant;
+use crate::model::StepDerivatives;
 
 /// Where a number of the check is NaN or infinite: rows are the step tape's outputs
 /// `(x⁺, stage terms, y(x⁺))` (see [`Plant::step_quantity`](crate::model::Plant::step_quantity)), columns the variables
@@ -128,12 +128,17 @@ fn rel_err(a: f64, b: f64, scale: f64) -> f64 {
 /// # }
 /// ```
 pub fn verify_step_derivatives(plant: &Plant, points: &[Vec<f64>]) -> VerifyReport {
-    let tape = plant.step_tape();
     let l = plant.layout;
     let wrt: Vec<usize> = (0..l.nx + l.nu).collect();
     let n = wrt.len();
-    let m = tape.n_outputs();
-    let mut der = Derivatives::new(tape, &wrt);
+    let m = plant.n_step_outputs();
+    let mut der = StepDerivatives::new(plant, &wrt);
+    let mut ws = plant.workspace();
+    let mut eval = |z: &[f64]| {
+        let mut out = vec![0.0; m];
+        plant.eval_step(&mut ws, z, &mut out);
+        out
+    };
     let weights: Vec<f64> = (0..m)
         .map(|i| 0.3 + 0.7 * ((i * 7 + 3) % 11) as f64 / 11.0)
         .collect();
@@ -158,7 +163,7 @@ pub fn verify_step_derivatives(plant: &Plant, points: &[Vec<f64>]) -> VerifyRepo
         .map(|t| if t > 0.0 { t } else { 1.0 })
         .collect();
     for (point, z) in points.iter().enumerate() {
-        let exact = der.hessian(tape, z, &weights).clone();
+        let exact = der.hessian(plant, z, &weights).clone();
         let (jac, hess) = (&exact.jacobian, &exact.hessian);
         if let Some((entry, value)) = first_non_finite(&exact.values, jac, hess, n) {
             report.non_finite = Some(NonFiniteEntry {
@@ -176,14 +181,14 @@ pub fn verify_step_derivatives(plant: &Plant, points: &[Vec<f64>]) -> VerifyRepo
             let mut dn = z.clone();
             up[i] += h;
             dn[i] -= h;
-            let fu = tape.eval_f64(&up);
-            let fdn = tape.eval_f64(&dn);
+            let fu = eval(&up);
+            let fdn = eval(&dn);
             for r in 0..m {
                 fd_jac[r * n + col] = (fu[r] - fdn[r]) / (2.0 * h);
             }
             // Hessian column from differences of the exact gradient.
-            let gu = der.hessian(tape, &up, &weights).gradient.clone();
-            let gd = &der.hessian(tape, &dn, &weights).gradient;
+            let gu = der.hessian(plant, &up, &weights).gradient.clone();
+            let gd = &der.hessian(plant, &dn, &weights).gradient;
             for r in 0..n {
                 fd_hess[r * n + col] = (gu[r] - gd[r]) / (2.0 * h);
             }

@@ -21,8 +21,8 @@
 //! ever formed.
 
 use super::{Nlp, Pattern, Stages, TerminalBox, TerminalCost};
-use crate::graph::{Derivatives, Workspace};
 use crate::model::Plant;
+use crate::model::{StepDerivatives, StepWorkspace};
 use rayon::prelude::*;
 use std::ops::Range;
 use std::sync::Arc;
@@ -192,8 +192,8 @@ pub struct Ocp {
     jacobian_pattern: Pattern,
     hessian_pattern: Pattern,
     // Evaluation buffers.
-    derivatives: Derivatives,
-    workspace: Workspace<f64>,
+    derivatives: StepDerivatives,
+    workspace: StepWorkspace,
     tape_inputs: Vec<f64>,
     /// Per stage: the step tape's outputs `(x⁺, terms, y)`.
     stage_values: Vec<f64>,
@@ -256,13 +256,12 @@ impl Ocp {
             ns: sides.len(),
             nr: rated.len(),
         };
-        let tape = plant.step_tape();
         let wrt: Vec<usize> = (0..l.nx).chain((0..l.nu).map(|i| l.u(i))).collect();
-        let n_out = tape.n_outputs();
+        let n_out = plant.n_step_outputs();
         let nw = wrt.len();
         let mut ocp = Ocp {
-            derivatives: Derivatives::new(tape, &wrt),
-            workspace: tape.workspace(),
+            derivatives: StepDerivatives::new(&plant, &wrt),
+            workspace: plant.workspace(),
             tape_inputs: vec![0.0; l.n_base()],
             stage_values: vec![0.0; horizon * n_out],
             stage_jacobians: vec![0.0; horizon * n_out * nw],
@@ -467,7 +466,7 @@ impl Ocp {
     }
 
     fn n_out(&self) -> usize {
-        self.plant.step_tape().n_outputs()
+        self.plant.n_step_outputs()
     }
 
     fn nw(&self) -> usize {
@@ -513,7 +512,7 @@ impl Ocp {
         let o = self.stage_offset(j);
         let n_out = self.n_out();
         let plant = Arc::clone(&self.plant);
-        plant.step_tape().eval(
+        plant.eval_step(
             &mut self.workspace,
             &self.tape_inputs,
             &mut self.stage_values[o..o + n_out],
@@ -561,9 +560,7 @@ impl Ocp {
         let plant = Arc::clone(&self.plant);
         for j in 0..self.layout.horizon {
             self.pack(x, j);
-            let e = self
-                .derivatives
-                .jacobian(plant.step_tape(), &self.tape_inputs);
+            let e = self.derivatives.jacobian(&plant, &self.tape_inputs);
             self.stage_values[j * n_out..(j + 1) * n_out].copy_from_slice(&e.values);
             self.stage_jacobians[j * n_out * nw..(j + 1) * n_out * nw].copy_from_slice(&e.jacobian);
         }
@@ -829,15 +826,14 @@ impl StageSweep<'_> {
     fn run(
         &self,
         start: usize,
-        derivatives: &mut Derivatives,
+        derivatives: &mut StepDerivatives,
         values: &mut [f64],
         jacobians: &mut [f64],
         hessian: &mut [f64],
     ) {
         let l = self.layout;
         let pl = self.plant.layout;
-        let tape = self.plant.step_tape();
-        let n_out = tape.n_outputs();
+        let n_out = self.plant.n_step_outputs();
         let nw = l.nx + l.nu;
         let ny0 = l.nx + self.n_terms;
         let mut inputs = vec![0.0; pl.n_base()];
@@ -871,7 +867,7 @@ impl StageSweep<'_> {
             inputs[pl.d(0)..pl.d(0) + pl.nd]
                 .copy_from_slice(&self.forecast[j * pl.nd..(j + 1) * pl.nd]);
             inputs[pl.p(0)..pl.p(0) + pl.np].copy_from_slice(self.params);
-            let e = derivatives.hessian(tape, &inputs, &weights);
+            let e = derivatives.hessian(self.plant, &inputs, &weights);
             vals.copy_from_slice(&e.values);
             jac.copy_from_slice(&e.jacobian);
             let cols = if j == 0 { l.nx..nw } else { 0..nw };

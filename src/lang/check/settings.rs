@@ -270,16 +270,19 @@ impl Checker<'_> {
             );
         }
         let integ = match integrator.as_ref().map(|n| (n.text.as_str(), n.span)) {
-            None | Some(("rk4", _)) => Integrator::Rk4,
-            Some(("euler", _)) => Integrator::Euler,
-            Some((other, sp)) => {
+            None => Integrator::Rk4,
+            Some((name, sp)) => Integrator::from_name(name).unwrap_or_else(|| {
+                let known: Vec<String> = Integrator::ALL
+                    .iter()
+                    .map(|i| format!("`{}`", i.name()))
+                    .collect();
                 self.diags.push(
-                    Diagnostic::error("E017", sp, format!("unknown integrator `{other}`"))
+                    Diagnostic::error("E017", sp, format!("unknown integrator `{name}`"))
                         .label("unknown")
-                        .help("use `rk4` or `euler`"),
+                        .help(format!("use one of {}", known.join(", "))),
                 );
                 Integrator::Rk4
-            }
+            }),
         };
         let n = match substeps {
             Some(e) => {

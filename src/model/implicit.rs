@@ -1,0 +1,544 @@
+//! Implicit Runge–Kutta steps for stiff models: the stage equations solved by Newton, the
+//! step's first and second derivatives from the implicit function theorem.
+//!
+//! Over one sub-step of length `h` from `x₀`, the stage values `Xᵢ` solve
+//!
+//! ```text
+//! Gᵢ(z, X) = Xᵢ − x₀ − h Σⱼ aᵢⱼ f(Xⱼ, u, d(t₀ + cⱼ h), p) = 0,    i = 1…s,
+//! ```
+//!
+//! and every method here is *stiffly accurate* (`c_s = 1`, the last row of `A` is the
+//! weights `b`), so the state after the sub-step is the last stage value `X_s`. The stage
+//! values of all sub-steps, `W`, are extra variables of the graph: the step's outputs
+//! `P(z, W)` (`x⁺`, the stage terms, `y(x⁺)`) and the residuals `G(z, W)` are graph nodes
+//! compiled into one tape, so their derivatives are exact.
+//!
+//! * **Values**: simplified Newton per sub-step with the matrix `I − h A ⊗ J`, `J = ∂f/∂x`
+//!   at the sub-step's start, refreshed where convergence slows; converged to a scaled step
+//!   of 1e-12, so that `G = 0` holds to round-off and the derivatives below are those of the
+//!   step actually taken.
+//! * **Jacobian**: `W_z = −G_W⁻¹ G_z` and `dP/dz = P_z + P_W W_z`.
+//! * **Hessian of `λᵀP`**: with the adjoint `μ` of `G_Wᵀ μ = −P_Wᵀ λ`, the Lagrangian
+//!   `L = λᵀP + μᵀG` is stationary in `W`, and `∇²(λᵀP) = Tᵀ ∇²L T` with `T = [I; W_z]`.
+//!   The Newton iterations themselves are never differentiated.
+
+use nalgebra::DMatrix;
+
+use super::Layout;
+use crate::graph::{Derivatives, Evaluation, Graph, NodeId, Tape, Workspace};
+use crate::lang::model::{Integrator, Model};
+
+/// Newton iterations allowed per sub-step before the step is declared failed.
+const MAX_NEWTON_ITERATIONS: usize = 60;
+/// Converged when the largest Newton correction, relative to `1 + |x|`, is below this.
+const NEWTON_TOLERANCE: f64 = 1e-12;
+/// A correction this small that no longer shrinks is round-off: converged as well.
+const ROUND_OFF_FLOOR: f64 = 1e-9;
+/// The contraction above which `J` is evaluated anew at the latest stage values.
+const SLOW_CONTRACTION: f64 = 0.5;
+
+/// The Butcher tableau of a stiffly accurate implicit method.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Tableau {
+    /// Number of stages `s`.
+    pub stages: usize,
+    /// `A`, row-major `s × s`.
+    pub a: Vec<f64>,
+    /// The stage times `c` as fractions of the step.
+    pub c: Vec<f64>,
+}
+
+impl Tableau {
+    /// The tableau of an implicit integrator (`None` for the explicit ones).
+    pub fn of(integrator: Integrator) -> Option<Tableau> {
+        let s6 = 6f64.sqrt();
+        let (a, c) = match integrator {
+            Integrator::Rk4 | Integrator::Euler => return None,
+            Integrator::BackwardEuler => (vec![1.0], vec![1.0]),
+            Integrator::Radau3 => (
+                vec![5.0 / 12.0, -1.0 / 12.0, 3.0 / 4.0, 1.0 / 4.0],
+                vec![1.0 / 3.0, 1.0],
+            ),
+            Integrator::Radau5 => (
+                vec![
+                    (88.0 - 7.0 * s6) / 360.0,
+                    (296.0 - 169.0 * s6) / 1800.0,
+                    (-2.0 + 3.0 * s6) / 225.0,
+                    (296.0 + 169.0 * s6) / 1800.0,
+                    (88.0 + 7.0 * s6) / 360.0,
+                    (-2.0 - 3.0 * s6) / 225.0,
+                    (16.0 - s6) / 36.0,
+                    (16.0 + s6) / 36.0,
+                    1.0 / 9.0,
+                ],
+                vec![(4.0 - s6) / 10.0, (4.0 + s6) / 10.0, 1.0],
+            ),
+            Integrator::Sdirk3 => {
+                // Alexander (1977): γ is the root of x³ − 3x² + 3x/2 − 1/6 in (1/6, 1/2).
+                let g = 0.435_866_521_508_459;
+                let tau = (1.0 + g) / 2.0;
+                let b1 = -(6.0 * g * g - 16.0 * g + 1.0) / 4.0;
+                let b2 = (6.0 * g * g - 20.0 * g + 5.0) / 4.0;
+                (
+                    vec![g, 0.0, 0.0, tau - g, g, 0.0, b1, b2, g],
+                    vec![g, tau, 1.0],
+                )
+            }
+        };
+        Some(Tableau {
+            stages: c.len(),
+            a,
+            c,
+        })
+    }
+
+    fn a(&self, i: usize, j: usize) -> f64 {
+        self.a[i * self.stages + j]
+    }
+}
+
+/// Graph nodes of an implicit step: the state after it and the stage residuals, over the
+/// base variables `(x, u, d, p)` and the stage values `W` (variables from `w_offset` on).
+pub(crate) struct ImplicitNodes {
+    /// `x⁺`: the last stage of the last sub-step (variables of `W`).
+    pub next_state: Vec<NodeId>,
+    /// `G(z, W)`, sub-step by sub-step, stage by stage, state by state.
+    pub residuals: Vec<NodeId>,
+}
+
+/// Variable number of stage `stage` of sub-step `sub`, state `k`.
+fn w_var(w_offset: usize, nx: usize, stages: usize, sub: usize, stage: usize, k: usize) -> usize {
+    w_offset + (sub * stages + stage) * nx + k
+}
+
+/// Adds the stage residuals of `model`'s implicit integrator to `graph`.
+pub(crate) fn build_nodes(
+    graph: &mut Graph,
+    model: &Model,
+    tableau: &Tableau,
+    w_offset: usize,
+) -> ImplicitNodes {
+    let nx = model.layout().nx;
+    let s = tableau.stages;
+    let h = model.sample_period / model.substeps as f64;
+    let mut start: Vec<NodeId> = (0..nx).map(|k| graph.var(k)).collect();
+    let mut residuals = Vec::with_capacity(model.substeps * s * nx);
+    for sub in 0..model.substeps {
+        let t0 = sub as f64 * h;
+        let stages: Vec<Vec<NodeId>> = (0..s)
+            .map(|i| {
+                (0..nx)
+                    .map(|k| graph.var(w_var(w_offset, nx, s, sub, i, k)))
+                    .collect()
+            })
+            .collect();
+        let slopes: Vec<Vec<NodeId>> = (0..s)
+            .map(|j| super::rhs_at(graph, model, &stages[j], t0 + tableau.c[j] * h))
+            .collect();
+        for (i, stage) in stages.iter().enumerate() {
+            for k in 0..nx {
+                let terms: Vec<NodeId> = (0..s)
+                    .filter(|&j| tableau.a(i, j) != 0.0)
+                    .map(|j| graph.scale(h * tableau.a(i, j), slopes[j][k]))
+                    .collect();
+                let sum = graph.sum(&terms);
+                let moved = graph.sub(stage[k], start[k]);
+                residuals.push(graph.sub(moved, sum));
+            }
+        }
+        start = stages[s - 1].clone();
+    }
+    ImplicitNodes {
+        next_state: start,
+        residuals,
+    }
+}
+
+/// An implicit step, compiled: what [`super::Plant`] holds for an implicit integrator.
+#[derive(Debug, Clone)]
+pub(crate) struct ImplicitStep {
+    tableau: Tableau,
+    substeps: usize,
+    h: f64,
+    layout: Layout,
+    clock: Option<usize>,
+    w_offset: usize,
+    n_w: usize,
+    /// `f(x, u, d, p)` over the base variables.
+    rhs: Tape,
+    /// `P(z, W)` over `(x, u, d, p, x⁺ slots, W)`.
+    post: Tape,
+    /// `[P; G](z, W)`, for derivatives.
+    combined: Tape,
+}
+
+/// Scratch of one implicit step: the Newton iteration's buffers and the stage values.
+#[derive(Debug, Clone)]
+pub(crate) struct ImplicitWorkspace {
+    rhs_ws: Workspace<f64>,
+    rhs_jacobian: Derivatives,
+    rhs_inputs: Vec<f64>,
+    slopes: Vec<f64>,
+    increments: Vec<f64>,
+    residual: Vec<f64>,
+    start: Vec<f64>,
+    /// The converged stage values `W` (valid after a successful solve).
+    w: Vec<f64>,
+    /// `(z, x⁺ slots, W)`, the inputs of the post and combined tapes.
+    full_inputs: Vec<f64>,
+    post_ws: Workspace<f64>,
+}
+
+/// The Newton iteration of a sub-step did not converge (or met a number that is not finite).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct NewtonFailure {
+    pub substep: usize,
+}
+
+impl ImplicitStep {
+    /// Compiles the tapes of an implicit step whose graph nodes `graph` holds.
+    pub fn new(
+        graph: &Graph,
+        model: &Model,
+        tableau: Tableau,
+        step_outputs: &[NodeId],
+        residuals: &[NodeId],
+    ) -> ImplicitStep {
+        let layout = model.layout();
+        let w_offset = layout.n_all();
+        let n_w = residuals.len();
+        let n_in = w_offset + n_w;
+        let mut all = step_outputs.to_vec();
+        all.extend_from_slice(residuals);
+        ImplicitStep {
+            substeps: model.substeps,
+            h: model.sample_period / model.substeps as f64,
+            clock: model.clock().map(|i| layout.d(i)),
+            rhs: graph.compile(&model.derivatives, layout.n_base()),
+            post: graph.compile(step_outputs, n_in),
+            combined: graph.compile(&all, n_in),
+            tableau,
+            layout,
+            w_offset,
+            n_w,
+        }
+    }
+
+    /// Values the step returns: `(x⁺, stage terms, y(x⁺))`.
+    pub fn n_outputs(&self) -> usize {
+        self.post.n_outputs()
+    }
+
+    /// The tape of `[P; G]` over `(x, u, d, p, x⁺ slots, W)`.
+    pub fn combined_tape(&self) -> &Tape {
+        &self.combined
+    }
+
+    pub fn workspace(&self) -> ImplicitWorkspace {
+        let nx = self.layout.nx;
+        let sn = self.tableau.stages * nx;
+        ImplicitWorkspace {
+            rhs_ws: self.rhs.workspace(),
+            rhs_jacobian: Derivatives::new(&self.rhs, &(0..nx).collect::<Vec<_>>()),
+            rhs_inputs: vec![0.0; self.layout.n_base()],
+            slopes: vec![0.0; sn],
+            increments: vec![0.0; sn],
+            residual: vec![0.0; sn],
+            start: vec![0.0; nx],
+            w: vec![0.0; self.n_w],
+            full_inputs: vec![0.0; self.w_offset + self.n_w],
+            post_ws: self.post.workspace(),
+        }
+    }
+
+    /// The Newton matrix `I − h A ⊗ J` with `J = ∂f/∂x` at `x` (time offset `t` in the step).
+    fn newton_matrix(
+        &self,
+        ws: &mut ImplicitWorkspace,
+        base: &[f64],
+        x: &[f64],
+        t: f64,
+    ) -> DMatrix<f64> {
+        let nx = self.layout.nx;
+        let s = self.tableau.stages;
+        self.set_rhs_inputs(ws, base, x, t);
+        let jac = &ws.rhs_jacobian.jacobian(&self.rhs, &ws.rhs_inputs).jacobian;
+        DMatrix::from_fn(s * nx, s * nx, |r, c| {
+            let (i, k) = (r / nx, r % nx);
+            let (j, l) = (c / nx, c % nx);
+            let identity = if r == c { 1.0 } else { 0.0 };
+            identity - self.h * self.tableau.a(i, j) * jac[k * nx + l]
+        })
+    }
+
+    fn set_rhs_inputs(&self, ws: &mut ImplicitWorkspace, base: &[f64], x: &[f64], t: f64) {
+        let nx = self.layout.nx;
+        ws.rhs_inputs.copy_from_slice(&base[..self.layout.n_base()]);
+        ws.rhs_inputs[..nx].copy_from_slice(x);
+        if let Some(c) = self.clock {
+            ws.rhs_inputs[c] = base[c] + t;
+        }
+    }
+
+    /// Solves the stage equations of every sub-step from the base point `(x, u, d, p)`;
+    /// the stage values are left in the workspace.
+    pub fn solve(&self, ws: &mut ImplicitWorkspace, base: &[f64]) -> Result<(), NewtonFailure> {
+        let nx = self.layout.nx;
+        let s = self.tableau.stages;
+        let sn = s * nx;
+        ws.start.copy_from_slice(&base[..nx]);
+        for sub in 0..self.substeps {
+            let t0 = sub as f64 * self.h;
+            let start = ws.start.clone();
+            let mut lu = self.newton_matrix(ws, base, &start, t0).lu();
+            ws.increments.fill(0.0);
+            let mut previous = f64::INFINITY;
+            let mut converged = false;
+            for _ in 0..MAX_NEWTON_ITERATIONS {
+                for i in 0..s {
+                    let stage: Vec<f64> = (0..nx)
+                        .map(|k| start[k] + ws.increments[i * nx + k])
+                        .collect();
+                    self.set_rhs_inputs(ws, base, &stage, t0 + self.tableau.c[i] * self.h);
+                    self.rhs.eval(
+                        &mut ws.rhs_ws,
+                        &ws.rhs_inputs,
+                        &mut ws.slopes[i * nx..(i + 1) * nx],
+                    );
+                }
+                for i in 0..s {
+                    for k in 0..nx {
+                        let sum: f64 = (0..s)
+                            .map(|j| self.tableau.a(i, j) * ws.slopes[j * nx + k])
+                            .sum();
+                        ws.residual[i * nx + k] = -(ws.increments[i * nx + k] - self.h * sum);
+                    }
+                }
+                let mut correction = nalgebra::DVector::from_column_slice(&ws.residual);
+                if !lu.solve_mut(&mut correction) {
+                    return Err(NewtonFailure { substep: sub });
+                }
+                let mut size = 0.0f64;
+                for r in 0..sn {
+                    ws.increments[r] += correction[r];
+                    size = size.max(correction[r].abs() / (1.0 + start[r % nx].abs()));
+                }
+                if !size.is_finite() {
+                    return Err(NewtonFailure { substep: sub });
+                }
+                if size <= NEWTON_TOLERANCE || (size <= ROUND_OFF_FLOOR && size >= 0.5 * previous) {
+                    converged = true;
+                    break;
+                }
+                if size > SLOW_CONTRACTION * previous {
+                    let last: Vec<f64> = (0..nx)
+                        .map(|k| start[k] + ws.increments[(s - 1) * nx + k])
+                        .collect();
+                    lu = self.newton_matrix(ws, base, &last, t0 + self.h).lu();
+                }
+                previous = size;
+            }
+            if !converged {
+                return Err(NewtonFailure { substep: sub });
+            }
+            for r in 0..sn {
+                ws.w[sub * sn + r] = start[r % nx] + ws.increments[r];
+            }
+            for k in 0..nx {
+                ws.start[k] = ws.w[sub * sn + (s - 1) * nx + k];
+            }
+        }
+        Ok(())
+    }
+
+    /// Copies `(z, 0, W)` into the post/combined tapes' inputs.
+    fn fill_full_inputs(&self, ws: &mut ImplicitWorkspace, base: &[f64]) {
+        let nb = self.layout.n_base();
+        ws.full_inputs[..nb].copy_from_slice(&base[..nb]);
+        ws.full_inputs[nb..self.w_offset].fill(0.0);
+        ws.full_inputs[self.w_offset..].copy_from_slice(&ws.w);
+    }
+
+    /// One step: `(x⁺, stage terms, y(x⁺))` into `outputs`, all NaN if Newton failed.
+    pub fn eval(&self, ws: &mut ImplicitWorkspace, base: &[f64], outputs: &mut [f64]) {
+        if self.solve(ws, base).is_err() {
+            outputs.fill(f64::NAN);
+            return;
+        }
+        self.fill_full_inputs(ws, base);
+        self.post.eval(&mut ws.post_ws, &ws.full_inputs, outputs);
+    }
+}
+
+/// Exact derivatives of an implicit step with respect to chosen base inputs.
+#[derive(Debug, Clone)]
+pub(crate) struct ImplicitDerivatives {
+    n_wrt: usize,
+    combined: Derivatives,
+    ws: ImplicitWorkspace,
+    weights: Vec<f64>,
+    /// `W_z`, `n_w × n_wrt`.
+    w_z: DMatrix<f64>,
+    result: Evaluation,
+}
+
+impl ImplicitDerivatives {
+    pub fn new(step: &ImplicitStep, wrt: &[usize]) -> ImplicitDerivatives {
+        let full: Vec<usize> = wrt
+            .iter()
+            .copied()
+            .chain(step.w_offset..step.w_offset + step.n_w)
+            .collect();
+        let (m, n) = (step.n_outputs(), wrt.len());
+        ImplicitDerivatives {
+            n_wrt: n,
+            combined: Derivatives::new(&step.combined, &full),
+            ws: step.workspace(),
+            weights: vec![0.0; m + step.n_w],
+            w_z: DMatrix::zeros(step.n_w, n),
+            result: Evaluation {
+                values: vec![0.0; m],
+                jacobian: vec![0.0; m * n],
+                gradient: vec![0.0; n],
+                hessian: vec![0.0; n * n],
+            },
+        }
+    }
+
+    fn fail(&mut self) -> &Evaluation {
+        self.result.values.fill(f64::NAN);
+        self.result.jacobian.fill(f64::NAN);
+        self.result.gradient.fill(f64::NAN);
+        self.result.hessian.fill(f64::NAN);
+        &self.result
+    }
+
+    /// Solves the step and forms `W_z` and `dP/dz`; returns `G_W`'s LU for the adjoint, or
+    /// `None` where the step or `G_W` failed.
+    fn first_order(
+        &mut self,
+        step: &ImplicitStep,
+        base: &[f64],
+    ) -> Option<(DMatrix<f64>, DMatrix<f64>)> {
+        if step.solve(&mut self.ws, base).is_err() {
+            return None;
+        }
+        step.fill_full_inputs(&mut self.ws, base);
+        let (m, n, nw) = (step.n_outputs(), self.n_wrt, step.n_w);
+        let nf = n + nw;
+        let e = self.combined.jacobian(&step.combined, &self.ws.full_inputs);
+        let at = |r: usize, c: usize| e.jacobian[r * nf + c];
+        let g_w = DMatrix::from_fn(nw, nw, |r, c| at(m + r, n + c));
+        let g_z = DMatrix::from_fn(nw, n, |r, c| at(m + r, c));
+        let p_w = DMatrix::from_fn(m, nw, |r, c| at(r, n + c));
+        let p_z = DMatrix::from_fn(m, n, at);
+        self.result.values.copy_from_slice(&e.values[..m]);
+        let lu = g_w.clone().lu();
+        let w_z = lu.solve(&(-g_z))?;
+        let dp = p_z + &p_w * &w_z;
+        for r in 0..m {
+            for c in 0..n {
+                self.result.jacobian[r * n + c] = dp[(r, c)];
+            }
+        }
+        self.w_z = w_z;
+        Some((g_w, p_w))
+    }
+
+    /// Values and Jacobian of the step at the base point.
+    pub fn jacobian(&mut self, step: &ImplicitStep, base: &[f64]) -> &Evaluation {
+        if self.first_order(step, base).is_none() {
+            return self.fail();
+        }
+        &self.result
+    }
+
+    /// Values, Jacobian, and the gradient and Hessian of `Σ weights[i] · output[i]`.
+    pub fn hessian(&mut self, step: &ImplicitStep, base: &[f64], weights: &[f64]) -> &Evaluation {
+        let Some((g_w, p_w)) = self.first_order(step, base) else {
+            return self.fail();
+        };
+        let (m, n, nw) = (step.n_outputs(), self.n_wrt, step.n_w);
+        let nf = n + nw;
+        // The adjoint: G_Wᵀ μ = −P_Wᵀ λ.
+        let lambda = nalgebra::DVector::from_column_slice(&weights[..m]);
+        let Some(mu) = g_w.transpose().lu().solve(&(-(p_w.transpose() * &lambda))) else {
+            return self.fail();
+        };
+        self.weights[..m].copy_from_slice(&weights[..m]);
+        self.weights[m..].copy_from_slice(mu.as_slice());
+        let e = self
+            .combined
+            .hessian(&step.combined, &self.ws.full_inputs, &self.weights);
+        // T = [I; W_z]: Tᵀ ∇²L T and Tᵀ ∇L.
+        let t = {
+            let mut t = DMatrix::zeros(nf, n);
+            for c in 0..n {
+                t[(c, c)] = 1.0;
+            }
+            t.view_mut((n, 0), (nw, n)).copy_from(&self.w_z);
+            t
+        };
+        let h_full = DMatrix::from_row_slice(nf, nf, &e.hessian);
+        let g_full = nalgebra::DVector::from_column_slice(&e.gradient);
+        let h = t.transpose() * h_full * &t;
+        let g = t.transpose() * g_full;
+        for r in 0..n {
+            self.result.gradient[r] = g[r];
+            for c in 0..n {
+                // Symmetric up to round-off: keep it exactly symmetric.
+                self.result.hessian[r * n + c] = 0.5 * (h[(r, c)] + h[(c, r)]);
+            }
+        }
+        &self.result
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each tableau is stiffly accurate and its rows sum to the stage times.
+    #[test]
+    fn tableaus_are_consistent_and_stiffly_accurate() {
+        for integrator in Integrator::ALL {
+            let Some(t) = Tableau::of(integrator) else {
+                assert!(!integrator.is_implicit());
+                continue;
+            };
+            assert!(integrator.is_implicit());
+            let s = t.stages;
+            assert_eq!(t.c[s - 1], 1.0, "{integrator:?}");
+            let b_sum: f64 = (0..s).map(|j| t.a(s - 1, j)).sum();
+            assert!((b_sum - 1.0).abs() < 1e-14, "{integrator:?}: Σb = {b_sum}");
+            for i in 0..s {
+                let row: f64 = (0..s).map(|j| t.a(i, j)).sum();
+                assert!((row - t.c[i]).abs() < 1e-14, "{integrator:?} row {i}");
+            }
+        }
+    }
+
+    /// Order conditions up to each method's order: Σ bᵢ cᵢ^(q−1) = 1/q.
+    #[test]
+    fn tableaus_reach_their_order() {
+        for (integrator, order) in [
+            (Integrator::BackwardEuler, 1),
+            (Integrator::Radau3, 3),
+            (Integrator::Radau5, 5),
+            (Integrator::Sdirk3, 3),
+        ] {
+            let t = Tableau::of(integrator).unwrap();
+            let s = t.stages;
+            for q in 1..=order {
+                let sum: f64 = (0..s).map(|i| t.a(s - 1, i) * t.c[i].powi(q - 1)).sum();
+                assert!(
+                    (sum - 1.0 / q as f64).abs() < 1e-13,
+                    "{integrator:?}: quadrature of order {q}: {sum}"
+                );
+            }
+        }
+        // Alexander's γ solves its cubic.
+        let g: f64 = 0.435_866_521_508_459;
+        assert!((g.powi(3) - 3.0 * g * g + 1.5 * g - 1.0 / 6.0).abs() < 1e-15);
+    }
+}
