@@ -4,12 +4,12 @@
 //! settings), or its controller is driven step by step ([`RawController`]).
 
 use crate::ModelError;
-use ghm::control::{Controller, Observation};
+use ghm::control::{Controller, LimitPolicy, StepRequest, Stepper};
 use ghm::job::output::{numeric_fields, text_fields, trajectory_header, TEXT_COLUMNS};
 use ghm::job::{
     build_controller, run_season_logs, JobError, RunSpec, SeasonLogs, StandaloneController,
 };
-use ghm::model::Plant;
+use ghm::model::{Plant, StepWorkspace};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
@@ -79,6 +79,7 @@ pub struct RawController {
     controller: Box<dyn Controller>,
     forecast_rows: usize,
     params: Vec<f64>,
+    workspace: StepWorkspace,
 }
 
 #[pymethods]
@@ -92,12 +93,14 @@ impl RawController {
             forecast_rows,
         } = build_controller(&spec).map_err(job_error)?;
         let params = plant.model.nominal_params();
+        let workspace = plant.workspace();
         Ok(RawController {
             spec,
             plant,
             controller,
             forecast_rows,
             params,
+            workspace,
         })
     }
 
@@ -127,61 +130,44 @@ impl RawController {
         previous_input: PyReadonlyArray1<'py, f64>,
         forecast: PyReadonlyArray2<'py, f64>,
     ) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyDict>)> {
-        let model = &self.plant.model;
-        let (nx, nu, nd) = (
-            model.states.len(),
-            model.inputs.len(),
-            model.disturbances.len(),
-        );
-        let state = state.as_slice()?;
-        let previous = previous_input.as_slice()?;
+        let nd = self.plant.layout.nd;
         let forecast_view = forecast.as_array();
         let (rows, columns) = forecast_view.dim();
-        let size = |what: &str, got: usize, want: usize| {
-            if got == want {
-                Ok(())
-            } else {
-                Err(PyValueError::new_err(format!(
-                    "{what} has {got} values; the model has {want}"
-                )))
-            }
-        };
-        size("state", state.len(), nx)?;
-        size("previous_input", previous.len(), nu)?;
-        size("each forecast row", columns, nd)?;
+        if columns != nd {
+            return Err(PyValueError::new_err(format!(
+                "each forecast row has {columns} values; the model has {nd}"
+            )));
+        }
         if rows == 0 {
             return Err(PyValueError::new_err(
                 "forecast has no row: it needs at least the weather now (row 0)",
             ));
         }
         let forecast: Vec<f64> = forecast_view.iter().copied().collect();
-        for (what, values) in [
-            ("state", state),
-            ("previous_input", previous),
-            ("forecast", forecast.as_slice()),
-        ] {
-            if let Some(v) = values.iter().find(|v| !v.is_finite()) {
-                return Err(PyValueError::new_err(format!(
-                    "{what} holds {v}; every value must be a finite number"
-                )));
-            }
-        }
-        let outputs = self
-            .plant
-            .outputs(state, previous, &forecast[..nd], &self.params);
-        let observation = Observation {
+        let request = StepRequest {
             step,
-            state,
-            outputs: &outputs,
-            previous_input: previous,
+            state: state.as_slice()?,
+            measured_outputs: None,
+            previous_input: previous_input.as_slice()?,
             forecast: &forecast,
         };
         // The controller is not `Send` (its solver is a trait object), so the interpreter is
         // held while it decides.
-        let decision = self
-            .controller
-            .decide(&observation)
-            .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+        let decision = Stepper::new(LimitPolicy::Clip)
+            .decide(
+                &self.plant,
+                &self.params,
+                &mut self.workspace,
+                self.controller.as_mut(),
+                &request,
+            )
+            .map_err(|e| {
+                if e.is_bad_request() {
+                    PyValueError::new_err(e.to_string())
+                } else {
+                    PyRuntimeError::new_err(e.to_string())
+                }
+            })?;
         let record = PyDict::new(py);
         let r = &decision.record;
         record.set_item("solve_ms", r.solve_time_s * 1e3)?;

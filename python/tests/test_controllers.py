@@ -108,7 +108,7 @@ def test_bad_settings_and_arguments_raise_with_ghm_messages(tmp_path):
     with pytest.raises(ghm.ModelError, match=r"bad\.ghm:3:1"):
         ghm.Mpc(bad)
     mpc = ghm.Mpc(LETTUCE, horizon="1h")
-    with pytest.raises(ValueError, match="state has 3 values; the model has 4"):
+    with pytest.raises(ValueError, match="state has 3 numbers; the model has 4"):
         mpc.decide(0, [1.0, 2.0, 3.0], [0, 0, 0], np.zeros((2, 4)))
     with pytest.raises(ValueError, match="finite"):
         mpc.decide(0, [np.nan, 1, 1, 1], [0, 0, 0], np.zeros((2, 4)))

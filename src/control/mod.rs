@@ -7,12 +7,14 @@ pub mod expert;
 pub mod mpc;
 pub mod policy;
 pub mod rlmpc;
+pub mod stepper;
 pub mod value;
 
 pub use expert::Expert;
 pub use mpc::{Guidance, Mpc};
 pub use policy::Policy;
 pub use rlmpc::{terminal_region, RlGuidance, RlMpcOptions, TerminalCostForm};
+pub use stepper::{LimitPolicy, StepDecision, StepError, StepRequest, Stepper};
 pub use value::{taylor_terminal_cost, ValueFile, ValueTerminalCost};
 
 use crate::solve::SolveStatus;

@@ -15,7 +15,7 @@ pub mod package;
 
 pub use ffi::GhmSizes;
 
-use crate::control::{Controller, Observation, StepRecord};
+use crate::control::{Controller, LimitPolicy, StepRecord, StepRequest, Stepper};
 use crate::job::{build_controller_with, ControllerFiles, ControllerSpec, JobError, RunSpec};
 use crate::model::{Plant, StepOutcome, StepWorkspace};
 use serde::{Deserialize, Serialize};
@@ -160,6 +160,7 @@ pub struct EmbeddedController {
     plant: Arc<Plant>,
     controller: Box<dyn Controller>,
     forecast_rows: usize,
+    stepper: Stepper,
     params: Vec<f64>,
     workspace: StepWorkspace,
     last: Option<StepRecord>,
@@ -176,6 +177,7 @@ impl EmbeddedController {
             workspace: plant.workspace(),
             controller,
             forecast_rows: forecast_rows.max(1),
+            stepper: Stepper::new(LimitPolicy::Clip).with_forecast_rows(forecast_rows),
             plant,
             last: None,
         }
@@ -215,66 +217,36 @@ impl EmbeddedController {
         previous_input: &[f64],
         forecast: &[f64],
     ) -> Result<Vec<f64>, EmbedError> {
-        let s = self.sizes();
-        check_len("state", state, s.states)?;
-        check_len("previous input", previous_input, s.inputs)?;
-        if s.disturbances > 0 && forecast.len() % s.disturbances != 0 {
-            return Err(EmbedError::Argument(format!(
-                "the forecast has {} numbers, not a whole number of rows of {} disturbances",
-                forecast.len(),
-                s.disturbances
-            )));
-        }
-        let rows = forecast.len().checked_div(s.disturbances).unwrap_or(0);
-        if rows < s.forecast_rows {
-            return Err(EmbedError::Argument(format!(
-                "the forecast has {rows} rows; this controller needs {} (its horizon), each of \
-                 {} disturbances",
-                s.forecast_rows, s.disturbances
-            )));
-        }
-        check_finite("state", state, &self.names(Quantity::State))?;
-        check_finite(
-            "previous input",
-            previous_input,
-            &self.names(Quantity::Input),
-        )?;
-        check_finite("forecast", forecast, &[])?;
         let step_index = usize::try_from(step)
             .map_err(|_| EmbedError::Argument(format!("step {step} is out of range")))?;
-        let mut outputs = vec![0.0; s.outputs];
-        self.plant.outputs_into(
-            &mut self.workspace,
-            state,
-            previous_input,
-            &forecast[..s.disturbances],
-            &self.params,
-            &mut outputs,
-        );
-        let observation = Observation {
+        let request = StepRequest {
             step: step_index,
             state,
-            outputs: &outputs,
+            measured_outputs: None,
             previous_input,
             forecast,
         };
-        let decision =
-            self.controller
-                .decide(&observation)
-                .map_err(|e| EmbedError::Controller {
-                    step,
-                    message: e.to_string(),
-                })?;
-        let mut input = decision.input;
-        if input.len() != s.inputs || input.iter().any(|v| !v.is_finite()) {
-            return Err(EmbedError::Controller {
-                step,
-                message: format!("it decided {input:?}, not {} finite inputs", s.inputs),
-            });
-        }
-        self.plant.apply_limits(previous_input, &mut input);
+        let decision = self
+            .stepper
+            .decide(
+                &self.plant,
+                &self.params,
+                &mut self.workspace,
+                self.controller.as_mut(),
+                &request,
+            )
+            .map_err(|e| {
+                if e.is_bad_request() {
+                    EmbedError::Argument(e.to_string())
+                } else {
+                    EmbedError::Controller {
+                        step,
+                        message: e.to_string(),
+                    }
+                }
+            })?;
         self.last = Some(decision.record);
-        Ok(input)
+        Ok(decision.input)
     }
 
     /// The state one control period after `state` under `input` and the disturbance row

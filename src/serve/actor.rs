@@ -15,9 +15,10 @@ use super::journal::{Entry, Journal, Outcome};
 use super::metrics::Metrics;
 use super::validate::{check, Checked};
 use super::ServeError;
-use crate::control::{Fallback, Observation};
+use crate::control::{Fallback, LimitPolicy, StepRequest, Stepper};
 use crate::job::output::model_hash;
 use crate::job::{build_controller, RunSpec, StandaloneController};
+use crate::model::StepWorkspace;
 use crate::solve::SolveStatus;
 use axum::http::StatusCode;
 use std::collections::HashMap;
@@ -168,6 +169,7 @@ const MAX_BATCH: usize = 256;
 struct Session {
     controller: StandaloneController,
     params: Vec<f64>,
+    workspace: StepWorkspace,
     /// The last step decided (journaled, or in the batch being decided).
     last_step: Option<u64>,
 }
@@ -413,9 +415,11 @@ impl Actor {
             None => build_controller(&self.spec)?,
         };
         let params = controller.plant.model.nominal_params();
+        let workspace = controller.plant.workspace();
         Ok(Session {
             controller,
             params,
+            workspace,
             last_step: None,
         })
     }
@@ -449,8 +453,7 @@ impl Actor {
 /// Decides one checked request with the session's controller, and adds a decision to the
 /// session's history.
 fn decide_and_record(session: &mut Session, c: &Checked, history: &History) -> Outcome {
-    let outputs = session_outputs(session, c);
-    let outcome = decide(session, c, &outputs);
+    let (outcome, outputs) = decide(session, c);
     if let Outcome::Answer(a) = &outcome {
         let plan = a.plan.as_ref().map(|p| {
             let predicted = planned_outputs(session, p, &c.forecast);
@@ -465,24 +468,6 @@ fn decide_and_record(session: &mut Session, c: &Checked, history: &History) -> O
         history.record(&c.session, point, plan);
     }
     outcome
-}
-
-/// The outputs at a request's step: measured, or evaluated at the state, the previous
-/// input and the first forecast row.
-fn session_outputs(session: &Session, c: &Checked) -> Vec<f64> {
-    match &c.outputs {
-        Some(y) => y.clone(),
-        None => {
-            let plant = &session.controller.plant;
-            let nd = plant.layout.nd;
-            plant.outputs(
-                &c.state,
-                &c.previous_input,
-                &c.forecast[..nd.min(c.forecast.len())],
-                &session.params,
-            )
-        }
-    }
 }
 
 /// The outputs of a plan's predicted states `x_{i+1}`, with its inputs `u_i` and the
@@ -505,20 +490,31 @@ fn planned_outputs(session: &Session, plan: &PlanJson, forecast: &[f64]) -> Vec<
         .collect()
 }
 
-/// Decides one checked request with the session's controller, given its outputs.
-fn decide(session: &mut Session, c: &Checked, outputs: &[f64]) -> Outcome {
+/// Decides one checked request with the session's controller, through the one
+/// [`Stepper`] every door shares (the input clipped to its bounds and rate limits); returns
+/// the outputs the controller observed with the outcome (none where it failed).
+fn decide(session: &mut Session, c: &Checked) -> (Outcome, Vec<f64>) {
     let s = &mut session.controller;
-    let observation = Observation {
+    let request = StepRequest {
         step: c.step,
         state: &c.state,
-        outputs,
+        measured_outputs: c.outputs.as_deref(),
         previous_input: &c.previous_input,
         forecast: &c.forecast,
     };
-    match s.controller.decide(&observation) {
+    let stepper = Stepper::new(LimitPolicy::Clip)
+        .with_forecast_rows(s.forecast_rows)
+        .with_plans();
+    match stepper.decide(
+        &s.plant,
+        &session.params,
+        &mut session.workspace,
+        s.controller.as_mut(),
+        &request,
+    ) {
         Ok(d) => {
             let r = d.record;
-            Outcome::Answer(DecideResponse {
+            let answer = Outcome::Answer(DecideResponse {
                 session: c.session.clone(),
                 step: c.step as u64,
                 input: d.input,
@@ -528,17 +524,21 @@ fn decide(session: &mut Session, c: &Checked, outputs: &[f64]) -> Outcome {
                 solve_time_ms: r.solve_time_s * 1e3,
                 fallback: r.fallback,
                 terminal_region: r.terminal_region,
-                plan: s.controller.plan().map(|p| PlanJson {
+                plan: d.plan.map(|p| PlanJson {
                     inputs: p.inputs,
                     states: p.states,
                 }),
                 from_journal: false,
-            })
+            });
+            (answer, d.outputs)
         }
-        Err(e) => Outcome::Failed(format!(
-            "the controller failed at step {} of session {:?}: {e}",
-            c.step, c.session
-        )),
+        Err(e) => (
+            Outcome::Failed(format!(
+                "the controller failed at step {} of session {:?}: {e}",
+                c.step, c.session
+            )),
+            Vec::new(),
+        ),
     }
 }
 

@@ -2,7 +2,7 @@
 //! bounds and rate limits (unless told not to), drawing parametric uncertainty, and
 //! reporting every step to a sink as it happens (so a run stopped halfway keeps its rows).
 
-use crate::control::{Controller, Observation, StepRecord};
+use crate::control::{Controller, LimitPolicy, StepError, StepRecord, StepRequest, Stepper};
 use crate::lang::model::Redraw;
 use crate::model::finite::{first_non_finite, Quantity};
 use crate::model::{Plant, StepOutcome};
@@ -65,6 +65,15 @@ pub enum SimError {
     /// The [`StepSink`] failed; holds its message.
     #[error("writing the results failed: {0}")]
     Sink(String),
+    /// The step's request to the controller was refused (a forecast row that is not finite).
+    #[error("step {step}: {source}")]
+    Step {
+        /// The step.
+        step: usize,
+        /// Why.
+        #[source]
+        source: StepError,
+    },
 }
 
 /// The most steps a season may have (ten million: a year at a 3-second period). The
@@ -396,18 +405,21 @@ pub fn run_season(
     };
     let mut metrics = MetricsBuilder::new(plant);
     let mut cumulative = 0.0;
+    let stepper = Stepper::new(if config.enforce_limits {
+        LimitPolicy::Clip
+    } else {
+        LimitPolicy::Pass
+    });
     for k in 0..config.steps {
         if k > 0 && delta > 0.0 && plant.model.uncertainty.redraw == Redraw::Step {
             params = draw_params(plant, delta, &mut rng);
         }
         let d = weather.at(k);
-        let mut y = vec![0.0; plant.model.outputs.len()];
-        plant.outputs_into(&mut ws, &x, &u_prev, d, &params, &mut y);
         let forecast = weather.horizon(k, weather.len() - k).unwrap_or(&[]);
-        let obs = Observation {
+        let request = StepRequest {
             step: k,
             state: &x,
-            outputs: &y,
+            measured_outputs: None,
             previous_input: &u_prev,
             forecast,
         };
@@ -419,21 +431,26 @@ pub fn run_season(
             }),
             None => Ok(()),
         };
-        not_finite(first_non_finite(&y, Quantity::Output))?;
-        let decision = controller
-            .decide(&obs)
-            .map_err(|source| SimError::Controller { step: k, source })?;
-        let mut u = decision.input;
-        if u.len() != l.nu {
-            return Err(SimError::InputWidth {
-                given: u.len(),
-                expected: l.nu,
-            });
-        }
-        not_finite(first_non_finite(&u, Quantity::Input))?;
-        if config.enforce_limits {
-            plant.apply_limits(&u_prev, &mut u);
-        }
+        let decision = stepper
+            .decide(plant, &params, &mut ws, controller, &request)
+            .map_err(|e| match e {
+                StepError::NotFinite {
+                    described, value, ..
+                } => SimError::NotFinite {
+                    step: k,
+                    quantity: described,
+                    value,
+                },
+                StepError::InputWidth { given, expected } => {
+                    SimError::InputWidth { given, expected }
+                }
+                StepError::Controller(source) => SimError::Controller { step: k, source },
+                other => SimError::Step {
+                    step: k,
+                    source: other,
+                },
+            })?;
+        let (u, y) = (decision.input, decision.outputs);
         plant.step_into(&mut ws, &x, &u, d, &params, &mut out);
         not_finite(first_non_finite(&out.next_state, Quantity::State))?;
         not_finite(first_non_finite(&out.terms, Quantity::Term))?;

@@ -137,7 +137,9 @@ class Controller:
         """The input for step ``step`` at ``state`` after ``previous_input``, with the
         weather ``forecast`` (rows × disturbances, row 0 = now; MPC reads
         ``forecast_rows`` rows and repeats the last where fewer are given), and a record
-        of how it was found (``solve_ms``, ``iterations``, ``status``, ``fallback``, ...)."""
+        of how it was found (``solve_ms``, ``iterations``, ``status``, ``fallback``, ...).
+        The input is clipped to its bounds and rate limits as a season clips it (every door
+        of ghm decides through the same stepper)."""
         as_array = lambda v: np.ascontiguousarray(v, dtype=np.float64)
         forecast = np.atleast_2d(as_array(forecast))
         return self._stepper().decide(int(step), as_array(state), as_array(previous_input), forecast)
