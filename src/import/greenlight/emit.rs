@@ -756,7 +756,7 @@ pub fn emit(model: &Resolved, opts: &EmitOptions) -> Result<Emitted, ImportError
     if !opts.inputs.is_empty() {
         let _ = writeln!(
             out,
-            "\n# Control inputs (open loop: set from outside, between 0 and 1): {}.\n# GreenLight's rule for each is kept as the output <name>_rule.",
+            "\n# Control inputs (open loop: set from outside): {}.\n# GreenLight's rule for each is kept as the output <name>_rule.",
             opts.inputs.join(", ")
         );
     }
