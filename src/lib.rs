@@ -33,6 +33,7 @@ pub mod cli;
 pub mod control;
 pub mod embed;
 pub mod graph;
+pub mod import;
 pub mod job;
 pub mod lang;
 pub mod model;

@@ -4,6 +4,7 @@
 
 mod check;
 mod compile;
+mod import;
 mod mpc;
 mod optimum;
 mod policy;
@@ -41,6 +42,10 @@ pub enum CliError {
     /// A service could not start or stopped (`ghm serve`, `ghm replay`'s client).
     #[error(transparent)]
     Serve(#[from] crate::serve::ServeError),
+    /// A model could not be imported (`ghm import`); the message names the file and the
+    /// variable.
+    #[error(transparent)]
+    Import(#[from] crate::import::ImportError),
     /// A controller could not be compiled (`ghm compile`).
     #[error(transparent)]
     Embed(#[from] crate::embed::EmbedError),
@@ -116,6 +121,9 @@ enum Command {
     /// Compile a controller into a static library with a C ABI (model, networks and options
     /// built in).
     Compile(compile::CompileArgs),
+    /// Import a model from another tool: `ghm import greenlight MODEL.json --out DIR`
+    /// writes a .ghm model (and the weather as a ghm CSV).
+    Import(import::ImportArgs),
 }
 
 /// Runs the command line; returns the process exit code.
@@ -135,6 +143,7 @@ pub fn main() -> i32 {
         Command::Serve(a) => serve::run(&a),
         Command::Replay(a) => replay::run(&a),
         Command::Compile(a) => compile::run(&a),
+        Command::Import(a) => import::run(&a),
     };
     match result {
         Ok(()) => 0,
