@@ -2,7 +2,7 @@
 //! model and a ghm weather CSV (`docs/import.md`).
 
 use crate::cli::CliError;
-use crate::import::greenlight::{convert, write, Options};
+use crate::import::greenlight::{convert, write, Options, DEFAULT_INTEGRATOR};
 use clap::{Args, Subcommand};
 use std::path::PathBuf;
 
@@ -35,12 +35,13 @@ pub struct GreenlightArgs {
     #[arg(long, value_name = "NAMES")]
     pub inputs: Option<String>,
     /// The integrator written in `sample` (passed through; `ghm check` says which exist).
-    #[arg(long, default_value = "rk4")]
+    #[arg(long, default_value = DEFAULT_INTEGRATOR)]
     pub integrator: String,
     /// The sample period in seconds.
     #[arg(long, default_value_t = 300.0)]
     pub step: f64,
-    /// Integration steps per period (default: 72 per 300 s for rk4 and euler, 1 otherwise).
+    /// Integration steps per period (default: 4 per 300 s for an implicit integrator, 72 for
+    /// rk4 and euler).
     #[arg(long)]
     pub substeps: Option<usize>,
 }
@@ -70,7 +71,7 @@ fn greenlight(a: &GreenlightArgs) -> Result<(), CliError> {
     if let Some(i) = &a.inputs {
         command.push_str(&format!(" --inputs {i}"));
     }
-    if a.integrator != "rk4" {
+    if a.integrator != DEFAULT_INTEGRATOR {
         command.push_str(&format!(" --integrator {}", a.integrator));
     }
     if a.step != 300.0 {

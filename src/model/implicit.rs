@@ -34,8 +34,10 @@ const MAX_NEWTON_ITERATIONS: usize = 60;
 const NEWTON_TOLERANCE: f64 = 1e-12;
 /// A correction this small that no longer shrinks is round-off: converged as well.
 const ROUND_OFF_FLOOR: f64 = 1e-9;
-/// The contraction above which `J` is evaluated anew at the latest stage values.
+/// The contraction above which `J` is evaluated anew at each stage's latest value.
 const SLOW_CONTRACTION: f64 = 0.5;
+/// The most pieces a failed step is split into before it is declared failed.
+const MAX_SPLIT: usize = 64;
 
 /// The Butcher tableau of a stiffly accurate implicit method.
 #[derive(Debug, Clone, PartialEq)]
@@ -191,9 +193,7 @@ pub(crate) struct ImplicitWorkspace {
 
 /// The Newton iteration of a sub-step did not converge (or met a number that is not finite).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct NewtonFailure {
-    pub substep: usize,
-}
+pub(crate) struct NewtonFailure;
 
 impl ImplicitStep {
     /// Compiles the tapes of an implicit step whose graph nodes `graph` holds.
@@ -251,23 +251,31 @@ impl ImplicitStep {
         }
     }
 
-    /// The Newton matrix `I − h A ⊗ J` with `J = ∂f/∂x` at `x` (time offset `t` in the step).
+    /// The Newton matrix `I − h (A ⊗ I) diag(J₁ … J_s)`, `J_j = ∂f/∂x` at stage `j`'s
+    /// state and time in `points`; one point stands for every stage (simplified Newton).
     fn newton_matrix(
         &self,
         ws: &mut ImplicitWorkspace,
         base: &[f64],
-        x: &[f64],
-        t: f64,
+        points: &[(Vec<f64>, f64)],
+        h: f64,
     ) -> DMatrix<f64> {
         let nx = self.layout.nx;
         let s = self.tableau.stages;
-        self.set_rhs_inputs(ws, base, x, t);
-        let jac = &ws.rhs_jacobian.jacobian(&self.rhs, &ws.rhs_inputs).jacobian;
+        let mut jacobians = Vec::with_capacity(points.len());
+        for (x, t) in points {
+            self.set_rhs_inputs(ws, base, x, *t);
+            let jac = ws.rhs_jacobian.jacobian(&self.rhs, &ws.rhs_inputs);
+            jacobians.push(jac.jacobian.clone());
+        }
+        // The matrix only steers the iteration (the residuals decide convergence): an entry
+        // of J that is not finite (a term like |x|^0.33 at x = 0) is left out.
         DMatrix::from_fn(s * nx, s * nx, |r, c| {
             let (i, k) = (r / nx, r % nx);
             let (j, l) = (c / nx, c % nx);
             let identity = if r == c { 1.0 } else { 0.0 };
-            identity - self.h * self.tableau.a(i, j) * jac[k * nx + l]
+            let d = jacobians[j.min(jacobians.len() - 1)][k * nx + l];
+            identity - h * self.tableau.a(i, j) * if d.is_finite() { d } else { 0.0 }
         })
     }
 
@@ -280,75 +288,118 @@ impl ImplicitStep {
         }
     }
 
+    /// The stage values `start + increments` of stage `i`, and their time.
+    fn stage_point(&self, ws: &ImplicitWorkspace, i: usize, t0: f64, h: f64) -> (Vec<f64>, f64) {
+        let nx = self.layout.nx;
+        let x = (0..nx)
+            .map(|k| ws.start[k] + ws.increments[i * nx + k])
+            .collect();
+        (x, t0 + self.tableau.c[i] * h)
+    }
+
+    /// Newton on the stage equations of one sub-step of length `h` from `ws.start` at
+    /// `t0`: simplified (one `J` at the start) while it contracts fast, exact (`J` at every
+    /// stage) where it slows. The stage increments are left in `ws.increments`.
+    fn solve_substep(
+        &self,
+        ws: &mut ImplicitWorkspace,
+        base: &[f64],
+        t0: f64,
+        h: f64,
+    ) -> Result<(), NewtonFailure> {
+        let nx = self.layout.nx;
+        let s = self.tableau.stages;
+        let start_point = vec![(ws.start.clone(), t0)];
+        let mut lu = self.newton_matrix(ws, base, &start_point, h).lu();
+        ws.increments.fill(0.0);
+        let mut previous = f64::INFINITY;
+        for _ in 0..MAX_NEWTON_ITERATIONS {
+            for i in 0..s {
+                let (x, t) = self.stage_point(ws, i, t0, h);
+                self.set_rhs_inputs(ws, base, &x, t);
+                self.rhs.eval(
+                    &mut ws.rhs_ws,
+                    &ws.rhs_inputs,
+                    &mut ws.slopes[i * nx..(i + 1) * nx],
+                );
+            }
+            for i in 0..s {
+                for k in 0..nx {
+                    let sum: f64 = (0..s)
+                        .map(|j| self.tableau.a(i, j) * ws.slopes[j * nx + k])
+                        .sum();
+                    ws.residual[i * nx + k] = h * sum - ws.increments[i * nx + k];
+                }
+            }
+            let mut correction = nalgebra::DVector::from_column_slice(&ws.residual);
+            if !lu.solve_mut(&mut correction) {
+                return Err(NewtonFailure);
+            }
+            let mut size = 0.0f64;
+            for (r, dz) in correction.iter().enumerate() {
+                ws.increments[r] += dz;
+                size = size.max(dz.abs() / (1.0 + ws.start[r % nx].abs()));
+            }
+            if !size.is_finite() {
+                return Err(NewtonFailure);
+            }
+            if size <= NEWTON_TOLERANCE || (size <= ROUND_OFF_FLOOR && size >= 0.5 * previous) {
+                return Ok(());
+            }
+            if size > SLOW_CONTRACTION * previous {
+                let points: Vec<(Vec<f64>, f64)> =
+                    (0..s).map(|i| self.stage_point(ws, i, t0, h)).collect();
+                lu = self.newton_matrix(ws, base, &points, h).lu();
+            }
+            previous = size;
+        }
+        Err(NewtonFailure)
+    }
+
     /// Solves the stage equations of every sub-step from the base point `(x, u, d, p)`;
     /// the stage values are left in the workspace.
     pub fn solve(&self, ws: &mut ImplicitWorkspace, base: &[f64]) -> Result<(), NewtonFailure> {
         let nx = self.layout.nx;
-        let s = self.tableau.stages;
-        let sn = s * nx;
+        let sn = self.tableau.stages * nx;
         ws.start.copy_from_slice(&base[..nx]);
         for sub in 0..self.substeps {
-            let t0 = sub as f64 * self.h;
-            let start = ws.start.clone();
-            let mut lu = self.newton_matrix(ws, base, &start, t0).lu();
-            ws.increments.fill(0.0);
-            let mut previous = f64::INFINITY;
-            let mut converged = false;
-            for _ in 0..MAX_NEWTON_ITERATIONS {
-                for i in 0..s {
-                    let stage: Vec<f64> = (0..nx)
-                        .map(|k| start[k] + ws.increments[i * nx + k])
-                        .collect();
-                    self.set_rhs_inputs(ws, base, &stage, t0 + self.tableau.c[i] * self.h);
-                    self.rhs.eval(
-                        &mut ws.rhs_ws,
-                        &ws.rhs_inputs,
-                        &mut ws.slopes[i * nx..(i + 1) * nx],
-                    );
-                }
-                for i in 0..s {
-                    for k in 0..nx {
-                        let sum: f64 = (0..s)
-                            .map(|j| self.tableau.a(i, j) * ws.slopes[j * nx + k])
-                            .sum();
-                        ws.residual[i * nx + k] = -(ws.increments[i * nx + k] - self.h * sum);
-                    }
-                }
-                let mut correction = nalgebra::DVector::from_column_slice(&ws.residual);
-                if !lu.solve_mut(&mut correction) {
-                    return Err(NewtonFailure { substep: sub });
-                }
-                let mut size = 0.0f64;
-                for r in 0..sn {
-                    ws.increments[r] += correction[r];
-                    size = size.max(correction[r].abs() / (1.0 + start[r % nx].abs()));
-                }
-                if !size.is_finite() {
-                    return Err(NewtonFailure { substep: sub });
-                }
-                if size <= NEWTON_TOLERANCE || (size <= ROUND_OFF_FLOOR && size >= 0.5 * previous) {
-                    converged = true;
-                    break;
-                }
-                if size > SLOW_CONTRACTION * previous {
-                    let last: Vec<f64> = (0..nx)
-                        .map(|k| start[k] + ws.increments[(s - 1) * nx + k])
-                        .collect();
-                    lu = self.newton_matrix(ws, base, &last, t0 + self.h).lu();
-                }
-                previous = size;
-            }
-            if !converged {
-                return Err(NewtonFailure { substep: sub });
-            }
+            self.solve_substep(ws, base, sub as f64 * self.h, self.h)?;
             for r in 0..sn {
-                ws.w[sub * sn + r] = start[r % nx] + ws.increments[r];
+                ws.w[sub * sn + r] = ws.start[r % nx] + ws.increments[r];
             }
-            for k in 0..nx {
-                ws.start[k] = ws.w[sub * sn + (s - 1) * nx + k];
-            }
+            let last = sub * sn + sn - nx;
+            ws.start.copy_from_slice(&ws.w[last..last + nx]);
         }
         Ok(())
+    }
+
+    /// Where the model's own sub-steps fail (a switch inside the step, a stage the Newton
+    /// iteration cannot reach from the start), the same method over 2, 4, … up to
+    /// [`MAX_SPLIT`] times as many sub-steps; `x⁺` is left in the last stage of `W`, the only
+    /// part of `W` the step's outputs read.
+    fn solve_split(&self, ws: &mut ImplicitWorkspace, base: &[f64]) -> Result<(), NewtonFailure> {
+        let nx = self.layout.nx;
+        let mut pieces = 2;
+        while pieces <= MAX_SPLIT {
+            let n = self.substeps * pieces;
+            let h = self.h / pieces as f64;
+            ws.start.copy_from_slice(&base[..nx]);
+            let solved = (0..n).try_for_each(|sub| {
+                self.solve_substep(ws, base, sub as f64 * h, h)?;
+                let last = (self.tableau.stages - 1) * nx;
+                for k in 0..nx {
+                    ws.start[k] += ws.increments[last + k];
+                }
+                Ok::<(), NewtonFailure>(())
+            });
+            if solved.is_ok() {
+                let n_w = ws.w.len();
+                ws.w[n_w - nx..].copy_from_slice(&ws.start);
+                return Ok(());
+            }
+            pieces *= 2;
+        }
+        Err(NewtonFailure)
     }
 
     /// Copies `(z, 0, W)` into the post/combined tapes' inputs.
@@ -361,7 +412,7 @@ impl ImplicitStep {
 
     /// One step: `(x⁺, stage terms, y(x⁺))` into `outputs`, all NaN if Newton failed.
     pub fn eval(&self, ws: &mut ImplicitWorkspace, base: &[f64], outputs: &mut [f64]) {
-        if self.solve(ws, base).is_err() {
+        if self.solve(ws, base).is_err() && self.solve_split(ws, base).is_err() {
             outputs.fill(f64::NAN);
             return;
         }
