@@ -13,16 +13,21 @@
 //! `P(z, W)` (`x⁺`, the stage terms, `y(x⁺)`) and the residuals `G(z, W)` are graph nodes
 //! compiled into one tape, so their derivatives are exact.
 //!
-//! * **Values**: simplified Newton per sub-step with the matrix `I − h A ⊗ J`, `J = ∂f/∂x`
-//!   at the sub-step's start, refreshed where convergence slows; converged to a scaled step
-//!   of 1e-12, so that `G = 0` holds to round-off and the derivatives below are those of the
-//!   step actually taken.
+//! * **Values**: simplified Newton per sub-step with the matrix `I − h A ⊗ J`. The last
+//!   sub-step's factored matrix is tried first (across steps too, in a simulation's
+//!   workspace: RADAU5's rule), from the last sub-step's collocation polynomial continued;
+//!   where it contracts slowly, `J` is taken afresh at the start, and at every stage where
+//!   that slows too; a step that still fails is split into up to 64 pieces. Converged to a
+//!   scaled correction of 1e-10, so that `G = 0` holds far below the integration error and
+//!   the derivatives below are those of the step actually taken. A workspace for
+//!   derivatives keeps nothing from one step to the next, so that its numbers do not
+//!   depend on which steps were solved before.
 //! * **Jacobian**: `W_z = −G_W⁻¹ G_z` and `dP/dz = P_z + P_W W_z`.
 //! * **Hessian of `λᵀP`**: with the adjoint `μ` of `G_Wᵀ μ = −P_Wᵀ λ`, the Lagrangian
 //!   `L = λᵀP + μᵀG` is stationary in `W`, and `∇²(λᵀP) = Tᵀ ∇²L T` with `T = [I; W_z]`.
 //!   The Newton iterations themselves are never differentiated.
 
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, Dyn, LU};
 
 use super::Layout;
 use crate::graph::{Derivatives, Evaluation, Graph, NodeId, Tape, Workspace};
@@ -30,8 +35,9 @@ use crate::lang::model::{Integrator, Model};
 
 /// Newton iterations allowed per sub-step before the step is declared failed.
 const MAX_NEWTON_ITERATIONS: usize = 60;
-/// Converged when the largest Newton correction, relative to `1 + |x|`, is below this.
-const NEWTON_TOLERANCE: f64 = 1e-12;
+/// Converged when the largest Newton correction, relative to `1 + |x|`, is below this
+/// (far below any integration error; the derivatives are those of the stage values to it).
+const NEWTON_TOLERANCE: f64 = 1e-10;
 /// A correction this small that no longer shrinks is round-off: converged as well.
 const ROUND_OFF_FLOOR: f64 = 1e-9;
 /// The contraction above which `J` is evaluated anew at each stage's latest value.
@@ -99,6 +105,28 @@ impl Tableau {
     }
 }
 
+/// `L_j(1 + c_i)` for the Lagrange basis on the nodes `0, c₁ … c_s`, stage `i` row by row,
+/// `j` over the nodes `c₁ … c_s`.
+fn extrapolation(tableau: &Tableau) -> Vec<f64> {
+    let s = tableau.stages;
+    let nodes: Vec<f64> = std::iter::once(0.0)
+        .chain(tableau.c.iter().copied())
+        .collect();
+    let mut e = vec![0.0; s * s];
+    for i in 0..s {
+        let tau = 1.0 + tableau.c[i];
+        for j in 0..s {
+            let node = nodes[j + 1];
+            e[i * s + j] = nodes
+                .iter()
+                .filter(|&&m| m != node)
+                .map(|&m| (tau - m) / (node - m))
+                .product();
+        }
+    }
+    e
+}
+
 /// Graph nodes of an implicit step: the state after it and the stage residuals, over the
 /// base variables `(x, u, d, p)` and the stage values `W` (variables from `w_offset` on).
 pub(crate) struct ImplicitNodes {
@@ -160,6 +188,9 @@ pub(crate) fn build_nodes(
 #[derive(Debug, Clone)]
 pub(crate) struct ImplicitStep {
     tableau: Tableau,
+    /// `L_j(1 + c_i)`, `s × s`: the Lagrange basis on the nodes `0, c₁ … c_s` (the node 0
+    /// carries the value 0 and drops out) at the next sub-step's stage times.
+    extrapolation: Vec<f64>,
     substeps: usize,
     h: f64,
     layout: Layout,
@@ -189,6 +220,15 @@ pub(crate) struct ImplicitWorkspace {
     /// `(z, x⁺ slots, W)`, the inputs of the post and combined tapes.
     full_inputs: Vec<f64>,
     post_ws: Workspace<f64>,
+    /// The factored Newton matrix of the last sub-step solved, and its sub-step length.
+    newton: Option<(LU<f64, Dyn, Dyn>, f64)>,
+    /// The stage increments of the last sub-step solved and its length: the start of the
+    /// next sub-step's iteration, extrapolated.
+    previous: Option<(Vec<f64>, f64)>,
+    /// Whether that matrix carries over from one step to the next (a simulation's
+    /// workspace), or only between the sub-steps of one step (derivatives, whose values
+    /// must not depend on which steps were solved before).
+    keep_newton: bool,
 }
 
 /// The Newton iteration of a sub-step did not converge (or met a number that is not finite).
@@ -217,6 +257,7 @@ impl ImplicitStep {
             rhs: graph.compile(&model.derivatives, layout.n_base()),
             post: graph.compile(step_outputs, n_in),
             combined: graph.compile(&all, n_in),
+            extrapolation: extrapolation(&tableau),
             tableau,
             layout,
             w_offset,
@@ -248,6 +289,9 @@ impl ImplicitStep {
             w: vec![0.0; self.n_w],
             full_inputs: vec![0.0; self.w_offset + self.n_w],
             post_ws: self.post.workspace(),
+            newton: None,
+            previous: None,
+            keep_newton: true,
         }
     }
 
@@ -298,8 +342,10 @@ impl ImplicitStep {
     }
 
     /// Newton on the stage equations of one sub-step of length `h` from `ws.start` at
-    /// `t0`: simplified (one `J` at the start) while it contracts fast, exact (`J` at every
-    /// stage) where it slows. The stage increments are left in `ws.increments`.
+    /// `t0`. The last sub-step's factored matrix is tried first while it serves (RADAU5's
+    /// rule); where it contracts slowly, the iteration starts again with `J` at the start,
+    /// and turns to exact Newton (`J` at every stage) where that slows too. The stage
+    /// increments are left in `ws.increments`.
     fn solve_substep(
         &self,
         ws: &mut ImplicitWorkspace,
@@ -307,11 +353,62 @@ impl ImplicitStep {
         t0: f64,
         h: f64,
     ) -> Result<(), NewtonFailure> {
+        if let Some((lu, made_for)) = ws.newton.take() {
+            if made_for == h {
+                self.extrapolate(ws, h);
+                if let Ok(lu) = self.newton(ws, base, t0, h, lu, true) {
+                    ws.newton = Some((lu, h));
+                    ws.previous = Some((ws.increments.clone(), h));
+                    return Ok(());
+                }
+            }
+        }
+        ws.increments.fill(0.0);
+        let start_point = vec![(ws.start.clone(), t0)];
+        let fresh = self.newton_matrix(ws, base, &start_point, h).lu();
+        let lu = self.newton(ws, base, t0, h, fresh, false)?;
+        ws.newton = Some((lu, h));
+        ws.previous = Some((ws.increments.clone(), h));
+        Ok(())
+    }
+
+    /// The first guess of a sub-step's stage increments: the last sub-step's collocation
+    /// polynomial (through its start and stages) continued past its end, where the last
+    /// sub-step had the same length; zero otherwise.
+    fn extrapolate(&self, ws: &mut ImplicitWorkspace, h: f64) {
         let nx = self.layout.nx;
         let s = self.tableau.stages;
-        let start_point = vec![(ws.start.clone(), t0)];
-        let mut lu = self.newton_matrix(ws, base, &start_point, h).lu();
-        ws.increments.fill(0.0);
+        match &ws.previous {
+            Some((z, made_for)) if *made_for == h => {
+                for i in 0..s {
+                    for k in 0..nx {
+                        // Nodes 0, c₁ … c_s with values 0, Z₁ … Z_s; less the new start Z_s.
+                        let mut v = -z[(s - 1) * nx + k];
+                        for j in 0..s {
+                            v += self.extrapolation[i * s + j] * z[j * nx + k];
+                        }
+                        ws.increments[i * nx + k] = v;
+                    }
+                }
+            }
+            _ => ws.increments.fill(0.0),
+        }
+    }
+
+    /// The Newton iteration from `ws.increments` with the factored matrix `lu`; a `reused`
+    /// matrix gives up at the first slow contraction, a fresh one is replaced by the exact
+    /// Newton matrix there. Returns the matrix it ended with.
+    fn newton(
+        &self,
+        ws: &mut ImplicitWorkspace,
+        base: &[f64],
+        t0: f64,
+        h: f64,
+        mut lu: LU<f64, Dyn, Dyn>,
+        reused: bool,
+    ) -> Result<LU<f64, Dyn, Dyn>, NewtonFailure> {
+        let nx = self.layout.nx;
+        let s = self.tableau.stages;
         let mut previous = f64::INFINITY;
         for _ in 0..MAX_NEWTON_ITERATIONS {
             for i in 0..s {
@@ -335,18 +432,27 @@ impl ImplicitStep {
             if !lu.solve_mut(&mut correction) {
                 return Err(NewtonFailure);
             }
+            // A NaN anywhere (f undefined at a stage) is no convergence: `max` would skip it.
             let mut size = 0.0f64;
             for (r, dz) in correction.iter().enumerate() {
                 ws.increments[r] += dz;
-                size = size.max(dz.abs() / (1.0 + ws.start[r % nx].abs()));
+                let scaled = dz.abs() / (1.0 + ws.start[r % nx].abs());
+                size = if scaled.is_nan() || size.is_nan() {
+                    f64::NAN
+                } else {
+                    size.max(scaled)
+                };
             }
             if !size.is_finite() {
                 return Err(NewtonFailure);
             }
             if size <= NEWTON_TOLERANCE || (size <= ROUND_OFF_FLOOR && size >= 0.5 * previous) {
-                return Ok(());
+                return Ok(lu);
             }
             if size > SLOW_CONTRACTION * previous {
+                if reused {
+                    return Err(NewtonFailure);
+                }
                 let points: Vec<(Vec<f64>, f64)> =
                     (0..s).map(|i| self.stage_point(ws, i, t0, h)).collect();
                 lu = self.newton_matrix(ws, base, &points, h).lu();
@@ -362,6 +468,10 @@ impl ImplicitStep {
         let nx = self.layout.nx;
         let sn = self.tableau.stages * nx;
         ws.start.copy_from_slice(&base[..nx]);
+        ws.previous = None;
+        if !ws.keep_newton {
+            ws.newton = None;
+        }
         for sub in 0..self.substeps {
             self.solve_substep(ws, base, sub as f64 * self.h, self.h)?;
             for r in 0..sn {
@@ -444,7 +554,10 @@ impl ImplicitDerivatives {
         ImplicitDerivatives {
             n_wrt: n,
             combined: Derivatives::new(&step.combined, &full),
-            ws: step.workspace(),
+            ws: ImplicitWorkspace {
+                keep_newton: false,
+                ..step.workspace()
+            },
             weights: vec![0.0; m + step.n_w],
             w_z: DMatrix::zeros(step.n_w, n),
             result: Evaluation {
