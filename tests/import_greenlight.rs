@@ -75,9 +75,22 @@ fn katzin_2021_imports_and_its_derivatives_match_greenlight() {
     ];
     expected.sort_unstable();
     assert_eq!(columns, expected);
-    let rules: Vec<&str> = m.outputs.iter().map(|o| o.info.name.as_str()).collect();
-    assert_eq!(rules.len(), 5);
-    assert!(rules.iter().all(|r| r.ends_with("_rule")));
+    // The five rules, then the seven readings a grower looks at.
+    let outputs: Vec<&str> = m.outputs.iter().map(|o| o.info.name.as_str()).collect();
+    assert_eq!(outputs.len(), 12, "{outputs:?}");
+    assert!(outputs[..5].iter().all(|r| r.ends_with("_rule")), "{outputs:?}");
+    assert_eq!(
+        outputs[5..],
+        [
+            "air_temperature",
+            "relative_humidity",
+            "co2_concentration",
+            "heating_power",
+            "lamp_power",
+            "fruit_dry_matter",
+            "harvest_rate"
+        ]
+    );
     let c = &imported.counts;
     assert_eq!((c.states, c.inputs, c.disturbances), (28, 5, 11));
     assert_eq!(c.functions + c.builtin_functions, 15);

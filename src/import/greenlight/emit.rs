@@ -12,6 +12,7 @@
 //! | a control named in `inputs` | `input x [unit] in [0, 1]` (unbounded unless its unit is `-`) and `output x_rule = definition "GreenLight's rule for x"` |
 //! | `function` | `fn`, except GreenLight's `ifElse`, `min` and `max` (recognised by their bodies) |
 //! | `time` | nothing (a comment): GreenLight's time axis, no variable |
+//! | the readings a grower looks at ([`READINGS`]: air temperature, humidity, CO₂, heating and lamp power, fruit dry matter, harvest), where the model has their variables | `output air_temperature [°C] = tAir …` (added, so that a season's plot shows the climate and the crop) |
 //!
 //! Expressions: `**` becomes `^` (both right-associative, binding tighter than a unary
 //! minus on their left), comparisons stay (both give 1 or 0), `logical_and`/`logical_or`
@@ -131,7 +132,7 @@ pub struct Counts {
     pub functions: usize,
     /// GreenLight functions written as built-ins (`ifElse`, `min`, `max`).
     pub builtin_functions: usize,
-    /// `output` (the rules of the inputs).
+    /// `output` (the rules of the inputs, and the readings a grower looks at).
     pub outputs: usize,
     /// Variables written as nothing (`time`).
     pub skipped: usize,
@@ -944,6 +945,32 @@ pub fn emit(model: &Resolved, opts: &EmitOptions) -> Result<Emitted, ImportError
     }
     let used: BTreeSet<&str> = model.vars.iter().map(|v| v.name.as_str()).collect();
     debug_assert!(opts.inputs.iter().all(|i| used.contains(i.as_str())));
+    let readings: Vec<&Reading> = READINGS
+        .iter()
+        .filter(|r| {
+            r.sum_of.iter().all(|n| {
+                names.contains_key(*n) && roles.get(*n).is_some_and(|role| *role != Role::Skip)
+            }) && !taken.contains(r.name)
+        })
+        .collect();
+    if !readings.is_empty() {
+        out.push_str(
+            "\n# ---- What a grower reads (added by the importer, so that a season's plot and \
+             trajectory show the climate and the crop) ----\n",
+        );
+    }
+    for r in readings {
+        counts.outputs += 1;
+        let sum: Vec<&str> = r.sum_of.iter().map(|n| names[*n].as_str()).collect();
+        let _ = writeln!(
+            out,
+            "output {} [{}] = {} {}",
+            r.name,
+            r.unit,
+            sum.join(" + "),
+            quote(r.description)
+        );
+    }
     Ok(Emitted {
         text: out,
         counts,
@@ -952,6 +979,63 @@ pub fn emit(model: &Resolved, opts: &EmitOptions) -> Result<Emitted, ImportError
         consts_as_lets,
     })
 }
+
+/// A quantity of GreenLight's greenhouse models that growers read, written as an output
+/// where the model has every variable it sums.
+struct Reading {
+    name: &'static str,
+    unit: &'static str,
+    sum_of: &'static [&'static str],
+    description: &'static str,
+}
+
+/// The readings: the climate (Katzin 2021's `tAir`, `rhIn`, `co2InPpm`), the energy
+/// (`hBoilPipe + hBoilGroPipe`, `qLampIn + qIntLampIn`) and the crop (`cFruit`,
+/// `mcFruitHar`).
+const READINGS: [Reading; 7] = [
+    Reading {
+        name: "air_temperature",
+        unit: "°C",
+        sum_of: &["tAir"],
+        description: "air temperature (tAir)",
+    },
+    Reading {
+        name: "relative_humidity",
+        unit: "%",
+        sum_of: &["rhIn"],
+        description: "relative humidity of the air (rhIn)",
+    },
+    Reading {
+        name: "co2_concentration",
+        unit: "ppm",
+        sum_of: &["co2InPpm"],
+        description: "CO2 concentration of the air (co2InPpm)",
+    },
+    Reading {
+        name: "heating_power",
+        unit: "W m^-2",
+        sum_of: &["hBoilPipe", "hBoilGroPipe"],
+        description: "boiler heat to the pipe rails and the grow pipes",
+    },
+    Reading {
+        name: "lamp_power",
+        unit: "W m^-2",
+        sum_of: &["qLampIn", "qIntLampIn"],
+        description: "electric input of the top lamps and the interlights",
+    },
+    Reading {
+        name: "fruit_dry_matter",
+        unit: "mg{CH2O} m^-2",
+        sum_of: &["cFruit"],
+        description: "carbohydrates in the fruit (cFruit)",
+    },
+    Reading {
+        name: "harvest_rate",
+        unit: "mg{CH2O} m^-2 s^-1",
+        sum_of: &["mcFruitHar"],
+        description: "fruit harvest (mcFruitHar)",
+    },
+];
 
 /// A number as the shortest text that reads back the same.
 pub fn fmt_num(x: f64) -> String {
