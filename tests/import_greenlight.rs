@@ -78,7 +78,10 @@ fn katzin_2021_imports_and_its_derivatives_match_greenlight() {
     // The five rules, then the seven readings a grower looks at.
     let outputs: Vec<&str> = m.outputs.iter().map(|o| o.info.name.as_str()).collect();
     assert_eq!(outputs.len(), 12, "{outputs:?}");
-    assert!(outputs[..5].iter().all(|r| r.ends_with("_rule")), "{outputs:?}");
+    assert!(
+        outputs[..5].iter().all(|r| r.ends_with("_rule")),
+        "{outputs:?}"
+    );
     assert_eq!(
         outputs[5..],
         [

@@ -18,10 +18,10 @@
 //!   workspace: RADAU5's rule), from the last sub-step's collocation polynomial continued;
 //!   where it contracts slowly, `J` is taken afresh at the start, and at every stage where
 //!   that slows too; a step that still fails is split into up to 64 pieces. Converged to a
-//!   scaled correction of 1e-10, so that `G = 0` holds far below the integration error and
-//!   the derivatives below are those of the step actually taken. A workspace for
-//!   derivatives keeps nothing from one step to the next, so that its numbers do not
-//!   depend on which steps were solved before.
+//!   scaled correction of 1e-8 in a simulation, 1e-10 for derivatives ([`Purpose`]), far
+//!   below the integration error, so that the derivatives below are those of the step
+//!   actually taken. A workspace for derivatives keeps nothing from one step to the next,
+//!   so that its numbers do not depend on which steps were solved before.
 //! * **Jacobian**: `W_z = −G_W⁻¹ G_z` and `dP/dz = P_z + P_W W_z`.
 //! * **Hessian of `λᵀP`**: with the adjoint `μ` of `G_Wᵀ μ = −P_Wᵀ λ`, the Lagrangian
 //!   `L = λᵀP + μᵀG` is stationary in `W`, and `∇²(λᵀP) = Tᵀ ∇²L T` with `T = [I; W_z]`.
@@ -35,9 +35,28 @@ use crate::lang::model::{Integrator, Model};
 
 /// Newton iterations allowed per sub-step before the step is declared failed.
 const MAX_NEWTON_ITERATIONS: usize = 60;
-/// Converged when the largest Newton correction, relative to `1 + |x|`, is below this
-/// (far below any integration error; the derivatives are those of the stage values to it).
-const NEWTON_TOLERANCE: f64 = 1e-10;
+/// What a workspace solves steps for, which sets how far Newton goes and what it keeps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Purpose {
+    /// A simulation: converged to a scaled correction of 1e-8, far below the integration
+    /// error (the GreenLight open loop meets its tolerances with 1e-8 as with 1e-10, and
+    /// takes a quarter less time); the factored matrix carries over from step to step.
+    Simulation,
+    /// Derivatives by the implicit function theorem: converged to 1e-10, so that `G = 0`
+    /// holds to what the derivatives need; nothing carries over from one step to the next,
+    /// so that the numbers do not depend on which steps were solved before.
+    Derivatives,
+}
+
+impl Purpose {
+    /// Converged when the largest Newton correction, relative to `1 + |x|`, is below this.
+    fn tolerance(self) -> f64 {
+        match self {
+            Purpose::Simulation => 1e-8,
+            Purpose::Derivatives => 1e-10,
+        }
+    }
+}
 /// A correction this small that no longer shrinks is round-off: converged as well.
 const ROUND_OFF_FLOOR: f64 = 1e-9;
 /// The contraction above which `J` is evaluated anew at each stage's latest value.
@@ -225,10 +244,8 @@ pub(crate) struct ImplicitWorkspace {
     /// The stage increments of the last sub-step solved and its length: the start of the
     /// next sub-step's iteration, extrapolated.
     previous: Option<(Vec<f64>, f64)>,
-    /// Whether that matrix carries over from one step to the next (a simulation's
-    /// workspace), or only between the sub-steps of one step (derivatives, whose values
-    /// must not depend on which steps were solved before).
-    keep_newton: bool,
+    /// What the steps are solved for.
+    purpose: Purpose,
 }
 
 /// The Newton iteration of a sub-step did not converge (or met a number that is not finite).
@@ -291,7 +308,7 @@ impl ImplicitStep {
             post_ws: self.post.workspace(),
             newton: None,
             previous: None,
-            keep_newton: true,
+            purpose: Purpose::Simulation,
         }
     }
 
@@ -446,7 +463,8 @@ impl ImplicitStep {
             if !size.is_finite() {
                 return Err(NewtonFailure);
             }
-            if size <= NEWTON_TOLERANCE || (size <= ROUND_OFF_FLOOR && size >= 0.5 * previous) {
+            if size <= ws.purpose.tolerance() || (size <= ROUND_OFF_FLOOR && size >= 0.5 * previous)
+            {
                 return Ok(lu);
             }
             if size > SLOW_CONTRACTION * previous {
@@ -469,7 +487,7 @@ impl ImplicitStep {
         let sn = self.tableau.stages * nx;
         ws.start.copy_from_slice(&base[..nx]);
         ws.previous = None;
-        if !ws.keep_newton {
+        if ws.purpose == Purpose::Derivatives {
             ws.newton = None;
         }
         for sub in 0..self.substeps {
@@ -555,7 +573,7 @@ impl ImplicitDerivatives {
             n_wrt: n,
             combined: Derivatives::new(&step.combined, &full),
             ws: ImplicitWorkspace {
-                keep_newton: false,
+                purpose: Purpose::Derivatives,
                 ..step.workspace()
             },
             weights: vec![0.0; m + step.n_w],
