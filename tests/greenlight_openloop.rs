@@ -338,3 +338,55 @@ fn closed_loop_with_greenlights_rules_matches_its_means() {
         "means outside their tolerance: {failed:?}"
     );
 }
+
+/// The RL environment (`ghm::rl::Env`, the one behind Python's `ghm.Env`) on the imported
+/// model: a day of episodes with actions in [−1, 1], every observation and reward finite;
+/// its rate is printed (the speed criterion against gl-gym is measured in
+/// `docs/benchmarks.md`, not here).
+#[test]
+fn the_rl_environment_runs_the_imported_model() {
+    let (Some(models), Some(_)) = (greenlight_models(), reference()) else {
+        eprintln!(
+            "skipped: needs GreenLight's model files and its reference output \
+             (GHM_GREENLIGHT_MODELS, GHM_GREENLIGHT_REFERENCE); .ci/run provides both"
+        );
+        return;
+    };
+    let out = import(&models, "greenlight-env", &[]);
+    let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/greenlight/katzin_2021.ghm");
+    let model = ghm::lang::load(&shipped).unwrap_or_else(|e| panic!("{}", e.render()));
+    let plant = std::sync::Arc::new(Plant::new(model));
+    let m = &plant.model;
+    let steps = 288;
+    let frame = load_csv(
+        &out.join("weather.csv"),
+        &m.weather_columns(),
+        m.sample_period,
+    )
+    .unwrap();
+    let weather = frame.select(&m.weather_columns(), 0, steps).unwrap();
+    let mut env = ghm::rl::Env::new(plant.clone(), weather, steps, None).unwrap();
+    let nu = plant.layout.nu;
+    let started = std::time::Instant::now();
+    let observation = env.reset().to_vec();
+    assert!(observation.iter().all(|v| v.is_finite()));
+    let mut k = 0;
+    loop {
+        // A deterministic sweep of actions through [−1, 1].
+        let action: Vec<f64> = (0..nu)
+            .map(|i| ((k * 7 + i * 3) % 11) as f64 / 5.0 - 1.0)
+            .collect();
+        let t = env.step(&action).unwrap();
+        assert!(t.observation.iter().all(|v| v.is_finite()), "step {k}");
+        assert!(t.reward.is_finite(), "step {k}");
+        k += 1;
+        if t.done {
+            break;
+        }
+    }
+    assert_eq!(k, steps);
+    eprintln!(
+        "{steps} environment steps in {:.3} s",
+        started.elapsed().as_secs_f64()
+    );
+}
