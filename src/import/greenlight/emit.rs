@@ -12,7 +12,7 @@
 //! | a control named in `inputs` | `input x [unit] in [0, 1]` (unbounded unless its unit is `-`) and `output x_rule = definition "GreenLight's rule for x"` |
 //! | `function` | `fn`, except GreenLight's `ifElse`, `min` and `max` (recognised by their bodies) |
 //! | `time` | nothing (a comment): GreenLight's time axis, no variable |
-//! | the readings a grower looks at ([`READINGS`]: air temperature, humidity, CO₂, heating and lamp power, fruit dry matter, harvest), where the model has their variables | `output air_temperature [°C] = tAir …` (added, so that a season's plot shows the climate and the crop) |
+//! | the readings a grower looks at (`READINGS`: air temperature, humidity, CO₂, heating and lamp power, fruit dry matter, harvest), where the model has their variables | `output air_temperature [°C] = tAir …` (added, so that a season's plot shows the climate and the crop) |
 //!
 //! Expressions: `**` becomes `^` (both right-associative, binding tighter than a unary
 //! minus on their left), comparisons stay (both give 1 or 0), `logical_and`/`logical_or`
