@@ -40,6 +40,22 @@ pub const STATEMENT_KEYWORDS: &[&str] = &[
     "fn",
 ];
 
+/// Whether `name` is a keyword of the grammar (and so can never be a name).
+pub fn is_keyword(name: &str) -> bool {
+    GhmParser::parse(Rule::keyword, name).is_ok_and(|p| p.as_str().len() == name.len())
+}
+
+/// Whether a model may not declare `name`: a keyword, a built-in function or `t` (E004).
+///
+/// ```
+/// use ghm::lang::parse::is_reserved;
+/// assert!(is_reserved("clock") && is_reserved("ln") && is_reserved("t"));
+/// assert!(!is_reserved("tAir") && !is_reserved("minimum"));
+/// ```
+pub fn is_reserved(name: &str) -> bool {
+    name == "t" || crate::graph::Op::from_function(name).is_some() || is_keyword(name)
+}
+
 /// Parses one file. `file` is the file's index in the source map (used in spans).
 pub fn parse(file: usize, text: &str) -> (Vec<Statement>, Vec<Diagnostic>) {
     let mut statements = Vec::new();

@@ -33,63 +33,10 @@
 use crate::import::greenlight::expr::{parse, BinOp, CmpOp, Expr};
 use crate::import::greenlight::json::{Kind, Resolved, Variable};
 use crate::import::ImportError;
+use crate::lang::parse::is_reserved;
 use std::collections::{BTreeSet, HashMap, HashSet};
 use std::fmt::Write as _;
 use std::path::PathBuf;
-
-/// Words a `.ghm` name may not be: the grammar's keywords, the built-in functions and `t`.
-pub const RESERVED: &[&str] = &[
-    "model",
-    "import",
-    "param",
-    "const",
-    "state",
-    "integrator",
-    "input",
-    "disturbance",
-    "let",
-    "der",
-    "output",
-    "sample",
-    "reward",
-    "cost",
-    "soft",
-    "terminal",
-    "override",
-    "drop",
-    "uncertainty",
-    "uncertain",
-    "rate",
-    "start",
-    "column",
-    "value",
-    "source",
-    "weight",
-    "plan",
-    "substeps",
-    "next",
-    "in",
-    "fn",
-    "and",
-    "or",
-    "not",
-    "clock",
-    "exp",
-    "log",
-    "ln",
-    "sqrt",
-    "abs",
-    "tanh",
-    "sin",
-    "cos",
-    "min",
-    "max",
-    "pow",
-    "if",
-    "floor",
-    "mod",
-    "t",
-];
 
 /// What to write.
 #[derive(Debug, Clone)]
@@ -317,12 +264,12 @@ fn mapped_function(v: &Variable, body: &Expr) -> Option<Mapped> {
 }
 
 fn ghm_name(name: &str, taken: &HashSet<String>) -> String {
-    if !RESERVED.contains(&name) {
+    if !is_reserved(name) {
         return name.to_string();
     }
     let mut candidate = format!("{name}_gl");
     let mut k = 2;
-    while taken.contains(&candidate) || RESERVED.contains(&candidate.as_str()) {
+    while taken.contains(&candidate) || is_reserved(&candidate) {
         candidate = format!("{name}_gl{k}");
         k += 1;
     }

@@ -220,7 +220,7 @@ pub fn model_name(path: &Path) -> String {
     if !name.starts_with(|c: char| c.is_ascii_alphabetic() || c == '_') {
         name.insert_str(0, "m_");
     }
-    if emit::RESERVED.contains(&name.as_str()) {
+    if crate::lang::parse::is_reserved(&name) {
         name.push_str("_gl");
     }
     name
