@@ -24,10 +24,9 @@
 //! Arguments: model, weather CSV, start row, days, horizon, driver, shadow (`ipm`, `sqp`,
 //! or `ipopt` in a build with `--features ipopt`).
 
-use clap::ValueEnum;
 use ghm::control::{ControlError, Controller, Decision, Mpc, Observation};
 use ghm::job::build::{make_mpc, parse_horizon};
-use ghm::job::{SolverChoice, WeatherSpec};
+use ghm::job::{MpcSpec, SolverChoice, WeatherSpec};
 use ghm::model::Plant;
 use ghm::nlp::Bands;
 use ghm::sim::season::{run_season, SeasonConfig, StepLog};
@@ -79,8 +78,8 @@ impl Controller for Referee {
 
 /// The back-end named as on `ghm mpc --solver` (`ipopt` needs a build with `--features ipopt`).
 fn solver(name: &str) -> Result<SolverChoice, String> {
-    SolverChoice::from_str(name, false)
-        .map_err(|_| format!("unknown back-end {name:?}: expected ipm, sqp or ipopt"))
+    SolverChoice::from_name(name)
+        .ok_or_else(|| format!("unknown back-end {name:?}: expected ipm, sqp or ipopt"))
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -94,7 +93,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let model = ghm::job::build::load_model(&PathBuf::from(model))?;
     let plant = Arc::new(Plant::new(model));
-    let horizon = parse_horizon(horizon, plant.model.sample_period)?;
+    let horizon = parse_horizon("horizon", horizon, plant.model.sample_period)?;
     let season = WeatherSpec {
         weather: Some(PathBuf::from(weather)),
         start_row: start_row.parse()?,
@@ -104,13 +103,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let steps = season.steps(&plant.model)?;
     let weather = season.load(&plant.model, steps, horizon)?;
     let mpc = |name: &str| -> Result<Mpc, Box<dyn std::error::Error>> {
-        Ok(make_mpc(
-            &plant,
-            horizon,
-            solver(name)?,
-            None,
-            Bands::Scoring,
-        )?)
+        let spec = MpcSpec {
+            solver: solver(name)?,
+            ..MpcSpec::default()
+        };
+        Ok(make_mpc(&plant, horizon, &spec, Bands::Scoring)?)
     };
     let mut referee = Referee {
         driver: mpc(driver)?,

@@ -421,3 +421,23 @@ fn the_checks_themselves_can_fail() {
         ["a", "b", "c", "a"]
     );
 }
+
+#[test]
+fn the_spec_types_know_no_command_line() {
+    // The job layer's specs are read from study files, Python and bundles as well as
+    // from flags; only `cli` maps flags onto them.
+    let src = root().join("src");
+    let mut found = Vec::new();
+    for module in ["job", "study", "embed", "serve"] {
+        for path in module_files(&src, module) {
+            let code = code_only(&std::fs::read_to_string(&path).unwrap());
+            if code.contains("clap::") || code.contains("use clap") {
+                found.push(path.display().to_string());
+            }
+        }
+    }
+    assert!(
+        found.is_empty(),
+        "these files use clap; flags belong to src/cli: {found:?}"
+    );
+}

@@ -175,7 +175,7 @@ fn bad_arguments_and_files_give_messages_not_panics() {
         ),
         (
             &["simulate", "models/lettuce.ghm", "--inputs", "const:1,2"],
-            "error: --inputs const: gives 2 values; the model has 3 inputs (co2_supply, ventilation, heating)",
+            "error: --inputs const:1,2: gives 2 values; the model has 3 inputs (co2_supply, ventilation, heating)",
         ),
         (
             &["simulate", "models/lettuce.ghm", "--inputs", "const:a,b,c"],
@@ -191,11 +191,11 @@ fn bad_arguments_and_files_give_messages_not_panics() {
         ),
         (
             &["simulate", "models/lettuce.ghm", "--steps", "0"],
-            "error: the season must have at least one step",
+            "error: --steps 0: the season must have at least one step",
         ),
         (
             &["simulate", "models/lettuce.ghm", "--uncertainty", "2"],
-            "error: --uncertainty must be in [0, 1)",
+            "error: --uncertainty 2: must be in [0, 1)",
         ),
         (
             &[

@@ -31,7 +31,7 @@ fn a_warm_up_as_long_as_the_training_is_refused() {
     ]);
     assert!(!ok, "a training of random warm-up only was run");
     assert!(
-        err.contains("--warmup 5") && err.contains("--episodes 2"),
+        err.contains("--warmup 5: not fewer than the 2 episodes"),
         "{err}"
     );
     assert!(!dir.join("summary.json").exists());

@@ -7,7 +7,8 @@ use crate::ModelError;
 use ghm::control::{Controller, LimitPolicy, StepRequest, Stepper};
 use ghm::job::output::{numeric_fields, text_fields, trajectory_header, TEXT_COLUMNS};
 use ghm::job::{
-    build_controller, run_season_logs, JobError, RunSpec, SeasonLogs, StandaloneController,
+    build_controller, run_season_logs, Choice, ControllerKind, ControllerSpec, JobError, RunSpec,
+    SeasonLogs, StandaloneController,
 };
 use ghm::model::{Plant, StepWorkspace};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2};
@@ -25,6 +26,21 @@ fn job_error(e: JobError) -> PyErr {
         }
         _ => PyValueError::new_err(e.to_string()),
     }
+}
+
+/// The settings of a controller of `kind` (`"mpc"`, `"rlmpc"`, ...) at ghm's defaults, as
+/// JSON: the Python classes start from these, so every default is the one ghm states.
+#[pyfunction]
+pub fn controller_defaults(kind: &str) -> PyResult<String> {
+    let kind = ControllerKind::from_name(kind).ok_or_else(|| {
+        let kinds: Vec<&str> = ControllerKind::ALL.iter().map(|k| k.name()).collect();
+        PyValueError::new_err(format!(
+            "no controller kind `{kind}` (one of {})",
+            kinds.join(", ")
+        ))
+    })?;
+    serde_json::to_string(&ControllerSpec::default_of(kind))
+        .map_err(|e| PyRuntimeError::new_err(e.to_string()))
 }
 
 /// The spec the Python classes wrote.

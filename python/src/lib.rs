@@ -382,6 +382,7 @@ fn _ghm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<controllers::RawController>()?;
     m.add_function(wrap_pyfunction!(load, m)?)?;
     m.add_function(wrap_pyfunction!(controllers::season, m)?)?;
+    m.add_function(wrap_pyfunction!(controllers::controller_defaults, m)?)?;
     m.add("ModelError", m.py().get_type::<ModelError>())?;
     m.add("DivergedError", m.py().get_type::<DivergedError>())?;
     Ok(())

@@ -96,10 +96,27 @@ def test_decisions_step_by_step_are_the_seasons_decisions():
     np.testing.assert_array_equal(u, inputs[0])
 
 
+def test_settings_left_out_take_the_defaults_ghm_states(tmp_path):
+    assert ghm.defaults("mpc") == {"kind": "mpc", "horizon": "3h", "solver": "ipm", "bands": "auto"}
+    rlmpc = ghm.defaults("rlmpc")
+    assert rlmpc["horizon"] == "1h" and rlmpc["guide"] == "sac" and rlmpc["epsilon"] == 0.05
+    assert ghm.Mpc(LETTUCE).settings == ghm.defaults("mpc")
+    mpc = ghm.Mpc(LETTUCE, horizon="2h", warm_start="primal-dual", bands=None)
+    assert mpc.settings["warm_start"] == "primal-dual" and mpc.settings["bands"] == "auto"
+    guided = ghm.RlMpc(LETTUCE, guide="expert", agent=tmp_path, terminal_cost="none")
+    assert guided.settings["horizon"] == "1h" and guided.settings["agent"] == str(tmp_path)
+    with pytest.raises(ValueError, match="no controller kind `mcp`"):
+        ghm.defaults("mcp")
+    with pytest.raises(ValueError, match="warmstart"):
+        ghm.Mpc(LETTUCE, warmstart="primal")
+    with pytest.raises(ValueError, match="unknown season option"):
+        ghm.Mpc(LETTUCE).season(day=1)
+
+
 def test_bad_settings_and_arguments_raise_with_ghm_messages(tmp_path):
     with pytest.raises(ValueError, match="solvr"):
         ghm.Controller(LETTUCE, {"kind": "mpc", "horizon": "1h", "solvr": "sqp"})
-    with pytest.raises(ValueError, match="--horizon 45min"):
+    with pytest.raises(ValueError, match="`horizon` = 45min"):
         ghm.Mpc(LETTUCE, horizon="45min")
     with pytest.raises(ValueError, match="no policy"):
         ghm.Policy(LETTUCE, agent=tmp_path)

@@ -2,6 +2,7 @@
 //! Every failure becomes a [`CliError`] with a message that says what to do; nothing here
 //! panics on user input.
 
+mod args;
 mod check;
 mod compile;
 mod import;
@@ -25,9 +26,10 @@ use thiserror::Error;
 #[derive(Debug, Error)]
 pub enum CliError {
     /// A job (a season, its model, weather, controller or run folder) could not run or
-    /// failed; see [`JobError`].
+    /// failed; see [`JobError`]. An error about a spec field is an [`CliError::Argument`]
+    /// that names its flag.
     #[error(transparent)]
-    Job(#[from] JobError),
+    Job(JobError),
     /// A study could not be planned or run, or some of its jobs failed.
     #[error(transparent)]
     Study(#[from] crate::study::StudyError),
@@ -75,6 +77,23 @@ pub enum CliError {
     /// or infinite at a point checked; the message names it.
     #[error("derivative check failed: {0}")]
     DerivativeNotFinite(String),
+}
+
+impl From<JobError> for CliError {
+    /// A spec field's error said as its flag (`--horizon 3x: expected ...`).
+    fn from(e: JobError) -> Self {
+        match e {
+            JobError::Field {
+                field,
+                value,
+                message,
+            } => CliError::Argument(match value {
+                Some(value) => format!("{} {value}: {message}", args::flag(field)),
+                None => format!("{}: {message}", args::flag(field)),
+            }),
+            other => CliError::Job(other),
+        }
+    }
 }
 
 #[derive(Debug, Parser)]

@@ -1,29 +1,27 @@
 //! `ghm mpc`: a season of economic MPC.
 
+use crate::cli::args::{choice, PlantArgs, WeatherArgs};
 use crate::cli::CliError;
 use crate::job::{
-    run_season_job, BandsChoice, ControllerSpec, JobOptions, MpcSpec, PlantSpec, RunSpec,
-    SolverChoice, WarmStartChoice, WeatherSpec,
+    run_season_job, BandsChoice, ControllerSpec, JobOptions, MpcSpec, RunSpec, SolverChoice,
+    WarmStartChoice,
 };
 use clap::Args;
 use std::path::PathBuf;
-
-/// `ghm mpc`'s default horizon.
-pub const DEFAULT_HORIZON: &str = "3h";
 
 #[derive(Debug, Args)]
 pub struct MpcArgs {
     /// The model file (.ghm).
     pub file: PathBuf,
     /// Prediction horizon: `3h`, `90min`, or a number of steps (at most 100 000).
-    #[arg(long, value_name = "H", default_value = DEFAULT_HORIZON)]
+    #[arg(long, value_name = "H", default_value_t = MpcSpec::default().horizon)]
     pub horizon: String,
     #[command(flatten)]
     pub nlp: NlpArgs,
     #[command(flatten)]
-    pub weather: WeatherSpec,
+    pub weather: WeatherArgs,
     #[command(flatten)]
-    pub plant: PlantSpec,
+    pub plant: PlantArgs,
     /// Run folder for trajectory.csv, summary.json and trajectory.png.
     #[arg(long, value_name = "DIR", default_value = "runs/mpc")]
     pub out: PathBuf,
@@ -36,19 +34,14 @@ pub struct MpcArgs {
 #[derive(Debug, Clone, Args)]
 pub struct NlpArgs {
     /// NLP back-end.
-    #[arg(long, value_enum, default_value_t = SolverChoice::Ipm)]
+    #[arg(long, value_parser = choice::<SolverChoice>(), default_value_t = MpcSpec::default().solver)]
     pub solver: SolverChoice,
-    /// How each step restarts from the last one's solution: `primal` (the shifted plan,
-    /// under guidance with the constraint multipliers; bound multipliers and barrier afresh;
-    /// the default of `ipm`), `primal-multipliers` (the same with the constraint
-    /// multipliers for plain MPC too: a quarter fewer iterations with `ipm`) or
-    /// `primal-dual` (the shifted plan and all multipliers; the default of `sqp` and
-    /// `ipopt`).
-    #[arg(long, value_enum)]
+    /// How each step restarts from the last one's solution (default: `primal` with `ipm`,
+    /// `primal-dual` with `sqp` and `ipopt`).
+    #[arg(long, value_parser = choice::<WarmStartChoice>())]
     pub warm_start: Option<WarmStartChoice>,
-    /// Soft-band bounds to plan with: `auto` plans with the model file's `plan` bounds on
-    /// an uncertain plant and with the scoring bounds on the nominal one.
-    #[arg(long, value_enum, default_value_t = BandsChoice::Auto)]
+    /// Soft-band bounds to plan with.
+    #[arg(long, value_parser = choice::<BandsChoice>(), default_value_t = MpcSpec::default().bands)]
     pub bands: BandsChoice,
 }
 
@@ -67,8 +60,8 @@ impl NlpArgs {
 pub fn run(args: &MpcArgs) -> Result<(), CliError> {
     let spec = RunSpec {
         model: args.file.clone(),
-        weather: args.weather.clone(),
-        plant: args.plant.clone(),
+        weather: args.weather.spec(),
+        plant: args.plant.spec(),
         controller: ControllerSpec::Mpc(args.nlp.mpc(&args.horizon)),
     };
     let options = JobOptions {

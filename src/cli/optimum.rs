@@ -1,10 +1,11 @@
 //! `ghm optimum`: the whole-season perfect-foresight optimum, the upper bound for every
 //! controller on the deterministic season.
 
+use crate::cli::args::choice;
+use crate::cli::args::WeatherArgs;
 use crate::cli::CliError;
 use crate::job::{
     run_season_job, ControllerSpec, JobOptions, OptimumSpec, PlantSpec, RunSpec, SolverChoice,
-    WeatherSpec,
 };
 use clap::Args;
 use std::path::PathBuf;
@@ -14,17 +15,17 @@ pub struct OptimumArgs {
     /// The model file (.ghm).
     pub file: PathBuf,
     /// Horizon of the closed-loop MPC run that initialises the optimum.
-    #[arg(long, value_name = "H", default_value = "1h")]
+    #[arg(long, value_name = "H", default_value_t = OptimumSpec::default().init_horizon)]
     pub init_horizon: String,
     /// NLP back-end for the season NLP (default: ipopt where built with it; otherwise the
     /// pure-Rust interior point, which factorises the 1920 stages by a Riccati recursion).
-    #[arg(long, value_enum)]
+    #[arg(long, value_parser = choice::<SolverChoice>())]
     pub solver: Option<SolverChoice>,
     /// Iteration limit of the season NLP.
-    #[arg(long, value_name = "N", default_value_t = 500)]
+    #[arg(long, value_name = "N", default_value_t = OptimumSpec::default().max_iterations)]
     pub max_iterations: usize,
     #[command(flatten)]
-    pub weather: WeatherSpec,
+    pub weather: WeatherArgs,
     /// Run folder for trajectory.csv, summary.json and trajectory.png.
     #[arg(long, value_name = "DIR", default_value = "runs/optimum")]
     pub out: PathBuf,
@@ -36,7 +37,7 @@ pub struct OptimumArgs {
 pub fn run(args: &OptimumArgs) -> Result<(), CliError> {
     let spec = RunSpec {
         model: args.file.clone(),
-        weather: args.weather.clone(),
+        weather: args.weather.spec(),
         plant: PlantSpec::NOMINAL,
         controller: ControllerSpec::Optimum(OptimumSpec {
             init_horizon: args.init_horizon.clone(),

@@ -2,8 +2,9 @@
 //! `ghm train`, or the agent shipped for the model) or by the rule-based expert, with the
 //! outputs of `ghm simulate`.
 
+use crate::cli::args::{PlantArgs, WeatherArgs};
 use crate::cli::CliError;
-use crate::job::{run_season_job, ControllerSpec, JobOptions, PlantSpec, RunSpec, WeatherSpec};
+use crate::job::{run_season_job, ControllerSpec, JobOptions, RunSpec};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -19,9 +20,9 @@ pub struct PolicyArgs {
     #[arg(long, conflicts_with = "agent")]
     pub expert: bool,
     #[command(flatten)]
-    pub weather: WeatherSpec,
+    pub weather: WeatherArgs,
     #[command(flatten)]
-    pub plant: PlantSpec,
+    pub plant: PlantArgs,
     /// Run folder for trajectory.csv, summary.json and trajectory.png.
     #[arg(long, value_name = "DIR", default_value = "runs/policy")]
     pub out: PathBuf,
@@ -40,8 +41,8 @@ pub fn run(args: &PolicyArgs) -> Result<(), CliError> {
     };
     let spec = RunSpec {
         model: args.file.clone(),
-        weather: args.weather.clone(),
-        plant: args.plant.clone(),
+        weather: args.weather.spec(),
+        plant: args.plant.spec(),
         controller,
     };
     let options = JobOptions {

@@ -2,13 +2,11 @@
 //! the greenhouse. The season, its files and its folder are those of `ghm mpc` (the job
 //! layer runs it); only the decisions come over HTTP.
 
+use crate::cli::args::{PlantArgs, WeatherArgs};
 use crate::cli::serve::serve_error;
 use crate::cli::CliError;
 use crate::job::output::model_hash;
-use crate::job::{
-    load_model, run_external_season_job, ExternalController, JobOptions, PlantSpec, RunSpec,
-    WeatherSpec,
-};
+use crate::job::{load_model, run_external_season_job, ExternalController, JobOptions, RunSpec};
 use crate::model::Plant;
 use crate::serve::api::DEFAULT_SESSION;
 use crate::serve::client::RemoteController;
@@ -37,9 +35,9 @@ pub struct ReplayArgs {
     #[arg(long, value_name = "SECONDS", default_value_t = 120.0)]
     pub retry_for: f64,
     #[command(flatten)]
-    pub weather: WeatherSpec,
+    pub weather: WeatherArgs,
     #[command(flatten)]
-    pub plant: PlantSpec,
+    pub plant: PlantArgs,
     /// Run folder for trajectory.csv, summary.json and trajectory.png.
     #[arg(long, value_name = "DIR", default_value = "runs/replay")]
     pub out: PathBuf,
@@ -77,8 +75,8 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
     }
     let spec = RunSpec {
         model: args.file.clone(),
-        weather: args.weather.clone(),
-        plant: args.plant.clone(),
+        weather: args.weather.spec(),
+        plant: args.plant.spec(),
         controller: info.spec.controller.clone(),
     };
     let external = ExternalController {

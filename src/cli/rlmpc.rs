@@ -4,34 +4,32 @@
 //! uses the agent and value network shipped for the model under `models/agents/`.
 //! `--compare` also runs plain MPC at the same horizon and prints both.
 
+use crate::cli::args::{choice, PlantArgs, WeatherArgs};
 use crate::cli::mpc::NlpArgs;
 use crate::cli::CliError;
 use crate::job::output::figure;
 use crate::job::{
-    run_season_job, ControllerSpec, CostForm, GuideChoice, JobOptions, PlantSpec, RlmpcSpec,
-    RunSpec, Variant, WeatherSpec,
+    run_season_job, ControllerSpec, CostForm, GuideChoice, JobOptions, MpcSpec, RlmpcSpec, RunSpec,
+    Variant,
 };
 use clap::Args;
 use std::path::PathBuf;
-
-/// `ghm rlmpc`'s default horizon.
-pub const DEFAULT_HORIZON: &str = "1h";
 
 #[derive(Debug, Args)]
 pub struct RlmpcArgs {
     /// The model file (.ghm).
     pub file: PathBuf,
     /// Prediction horizon: `1h`, `90min`, `1800s` or a number of steps.
-    #[arg(long, value_name = "H", default_value = DEFAULT_HORIZON)]
+    #[arg(long, value_name = "H", default_value_t = RlmpcSpec::default().mpc.horizon)]
     pub horizon: String,
     #[command(flatten)]
     pub guidance: GuideArgs,
     #[command(flatten)]
     pub nlp: NlpArgs,
     #[command(flatten)]
-    pub weather: WeatherSpec,
+    pub weather: WeatherArgs,
     #[command(flatten)]
-    pub plant: PlantSpec,
+    pub plant: PlantArgs,
     /// Also run plain MPC at the same horizon (into OUT/mpc) and print both.
     #[arg(long)]
     pub compare: bool,
@@ -48,7 +46,7 @@ pub struct RlmpcArgs {
 #[derive(Debug, Clone, Args)]
 pub struct GuideArgs {
     /// The guide.
-    #[arg(long, value_enum, default_value_t = GuideChoice::Sac)]
+    #[arg(long, value_parser = choice::<GuideChoice>(), default_value_t = RlmpcSpec::default().guide)]
     pub guide: GuideChoice,
     /// The SAC agent (a `ghm train` folder or policy file); default: the shipped one.
     #[arg(long, value_name = "DIR")]
@@ -57,23 +55,22 @@ pub struct GuideArgs {
     /// for the guide.
     #[arg(long, value_name = "DIR")]
     pub value: Option<PathBuf>,
-    #[arg(long, value_enum, default_value_t = Variant::Rlmpc)]
+    /// With or without the terminal region.
+    #[arg(long, value_parser = choice::<Variant>(), default_value_t = RlmpcSpec::default().variant)]
     pub variant: Variant,
     /// Relative half-width ε of the terminal region.
-    #[arg(long, value_name = "EPS", default_value_t = 0.05)]
+    #[arg(long, value_name = "EPS", default_value_t = RlmpcSpec::default().epsilon)]
     pub epsilon: f64,
-    #[arg(long, value_enum, default_value_t = CostForm::Exact)]
+    /// The terminal cost's form.
+    #[arg(long, value_parser = choice::<CostForm>(), default_value_t = RlmpcSpec::default().terminal_cost)]
     pub terminal_cost: CostForm,
 }
 
 impl GuideArgs {
-    /// RL-guided MPC over `horizon` with these settings and `nlp`'s.
-    pub fn rlmpc(&self, horizon: &str, nlp: &NlpArgs) -> RlmpcSpec {
+    /// RL-guided MPC of `mpc` with these settings.
+    pub fn rlmpc(&self, mpc: MpcSpec) -> RlmpcSpec {
         RlmpcSpec {
-            horizon: horizon.to_string(),
-            solver: nlp.solver,
-            warm_start: nlp.warm_start,
-            bands: nlp.bands,
+            mpc,
             guide: self.guide,
             agent: self.agent.clone(),
             value: self.value.clone(),
@@ -85,11 +82,11 @@ impl GuideArgs {
 }
 
 pub fn run(args: &RlmpcArgs) -> Result<(), CliError> {
-    let rlmpc = args.guidance.rlmpc(&args.horizon, &args.nlp);
+    let rlmpc = args.guidance.rlmpc(args.nlp.mpc(&args.horizon));
     let spec = |controller| RunSpec {
         model: args.file.clone(),
-        weather: args.weather.clone(),
-        plant: args.plant.clone(),
+        weather: args.weather.spec(),
+        plant: args.plant.spec(),
         controller,
     };
     let options = JobOptions {
@@ -97,7 +94,7 @@ pub fn run(args: &RlmpcArgs) -> Result<(), CliError> {
         verbose: true,
     };
     let label = rlmpc.label();
-    let plain = ControllerSpec::Mpc(args.nlp.mpc(&args.horizon));
+    let plain = ControllerSpec::Mpc(rlmpc.mpc.clone());
     let guided = run_season_job(&spec(ControllerSpec::Rlmpc(rlmpc)), &args.out, &options)?;
     if args.compare {
         println!();

@@ -2,28 +2,16 @@
 //! HTTP/JSON service with a journal (`docs/serve.md`). The flags are those commands' own;
 //! this file only maps them onto a spec and the service's options.
 
-use crate::cli::mpc::{self, NlpArgs};
-use crate::cli::rlmpc::{self, GuideArgs};
+use crate::cli::args::{choice_where, PlantArgs, WeatherArgs};
+use crate::cli::mpc::NlpArgs;
+use crate::cli::rlmpc::GuideArgs;
 use crate::cli::CliError;
-use crate::job::{ControllerSpec, PlantSpec, RunSpec, WeatherSpec};
+use crate::job::{ControllerKind, ControllerSpec, RunSpec};
 use crate::serve::token::read_token;
 use crate::serve::ServeOptions;
-use clap::{Args, ValueEnum};
+use clap::Args;
 use std::net::SocketAddr;
 use std::path::PathBuf;
-
-/// The controllers that can be served.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum Served {
-    /// Economic MPC (the options of `ghm mpc`).
-    Mpc,
-    /// RL-guided MPC (the options of `ghm rlmpc`).
-    Rlmpc,
-    /// A trained policy (`--agent`, or the one shipped for the model).
-    Policy,
-    /// The rule-based expert.
-    Expert,
-}
 
 /// The controller a service runs or `ghm compile` packs: the model and the options of the
 /// controller's own command.
@@ -34,9 +22,9 @@ pub struct ControllerArgs {
     /// What decides, with the options of its command: `--agent` is the policy's or the
     /// guide's; the weather options pick the agents shipped for the model (the built-in
     /// weather has its own), and the season's length does not matter to a controller.
-    #[arg(long, value_enum)]
-    pub controller: Served,
-    /// Prediction horizon of mpc (default 3h) and rlmpc (default 1h).
+    #[arg(long, value_parser = choice_where(ControllerKind::is_feedback))]
+    pub controller: ControllerKind,
+    /// Prediction horizon of mpc and rlmpc (default: that of `ghm mpc` and `ghm rlmpc`).
     #[arg(long, value_name = "H")]
     pub horizon: Option<String>,
     #[command(flatten)]
@@ -44,9 +32,9 @@ pub struct ControllerArgs {
     #[command(flatten)]
     pub guidance: GuideArgs,
     #[command(flatten)]
-    pub weather: WeatherSpec,
+    pub weather: WeatherArgs,
     #[command(flatten)]
-    pub plant: PlantSpec,
+    pub plant: PlantArgs,
 }
 
 impl ControllerArgs {
@@ -54,32 +42,39 @@ impl ControllerArgs {
     pub fn spec(&self) -> Result<RunSpec, CliError> {
         Ok(RunSpec {
             model: self.file.clone(),
-            weather: self.weather.clone(),
-            plant: self.plant.clone(),
+            weather: self.weather.spec(),
+            plant: self.plant.spec(),
             controller: self.controller()?,
         })
     }
 
+    /// The controller of `--controller` with its command's options; every setting not
+    /// given keeps the kind's default.
     fn controller(&self) -> Result<ControllerSpec, CliError> {
+        let kind = self.controller;
+        if self.horizon.is_some() && !kind.has_horizon() {
+            return Err(CliError::Argument(format!(
+                "--horizon is for --controller mpc and rlmpc; {kind} looks one step ahead"
+            )));
+        }
         let horizon = |default: &str| self.horizon.clone().unwrap_or_else(|| default.into());
-        Ok(match self.controller {
-            Served::Mpc => ControllerSpec::Mpc(self.nlp.mpc(&horizon(mpc::DEFAULT_HORIZON))),
-            Served::Rlmpc => ControllerSpec::Rlmpc(
-                self.guidance
-                    .rlmpc(&horizon(rlmpc::DEFAULT_HORIZON), &self.nlp),
-            ),
-            Served::Policy | Served::Expert if self.horizon.is_some() => {
-                return Err(CliError::Argument(
-                    "--horizon is for --controller mpc and rlmpc; a policy and the expert look \
-                     one step ahead"
-                        .into(),
-                ))
+        let mut spec = ControllerSpec::default_of(kind);
+        match &mut spec {
+            ControllerSpec::Mpc(mpc) => *mpc = self.nlp.mpc(&horizon(&mpc.horizon)),
+            ControllerSpec::Rlmpc(rlmpc) => {
+                let mpc = self.nlp.mpc(&horizon(&rlmpc.mpc.horizon));
+                *rlmpc = self.guidance.rlmpc(mpc);
             }
-            Served::Policy => ControllerSpec::Policy {
-                agent: self.guidance.agent.clone(),
-            },
-            Served::Expert => ControllerSpec::Expert,
-        })
+            ControllerSpec::Policy { agent } => agent.clone_from(&self.guidance.agent),
+            ControllerSpec::Expert => {}
+            ControllerSpec::Inputs(_) | ControllerSpec::Optimum(_) => {
+                return Err(CliError::Argument(format!(
+                    "--controller {kind}: only a controller that decides from the state can be \
+                     served or compiled"
+                )))
+            }
+        }
+        Ok(spec)
     }
 }
 

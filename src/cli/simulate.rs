@@ -1,7 +1,8 @@
 //! `ghm simulate`: a season with fixed inputs or inputs from a CSV file.
 
+use crate::cli::args::{PlantArgs, WeatherArgs};
 use crate::cli::CliError;
-use crate::job::{run_season_job, ControllerSpec, JobOptions, PlantSpec, RunSpec, WeatherSpec};
+use crate::job::{run_season_job, ControllerSpec, InputsSpec, JobOptions, RunSpec};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -10,7 +11,7 @@ pub struct SimulateArgs {
     /// The model file (.ghm).
     pub file: PathBuf,
     #[command(flatten)]
-    pub weather: WeatherSpec,
+    pub weather: WeatherArgs,
     /// Inputs: `const:u1,u2,...` for the same input every step, or a CSV file with one row per
     /// step and one column per input (named as the model's inputs). Default: the start input.
     #[arg(long, value_name = "const:U,.. | FILE.csv")]
@@ -19,7 +20,7 @@ pub struct SimulateArgs {
     #[arg(long)]
     pub no_rate_limit: bool,
     #[command(flatten)]
-    pub plant: PlantSpec,
+    pub plant: PlantArgs,
     /// Run folder for trajectory.csv, summary.json and trajectory.png.
     #[arg(long, value_name = "DIR", default_value = "runs/simulate")]
     pub out: PathBuf,
@@ -31,12 +32,12 @@ pub struct SimulateArgs {
 pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
     let spec = RunSpec {
         model: args.file.clone(),
-        weather: args.weather.clone(),
-        plant: args.plant.clone(),
-        controller: ControllerSpec::Inputs {
+        weather: args.weather.spec(),
+        plant: args.plant.spec(),
+        controller: ControllerSpec::Inputs(InputsSpec {
             inputs: args.inputs.clone(),
             enforce_limits: !args.no_rate_limit,
-        },
+        }),
     };
     let options = JobOptions {
         overwrite: args.overwrite,

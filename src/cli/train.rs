@@ -8,10 +8,11 @@
 //! `ghm policy` and RL-guided MPC load), `summary.json` (which records the season, so
 //! that `--resume` continues on it) and `run.json` (complete only once every episode ran).
 
+use crate::cli::args::WeatherArgs;
 use crate::cli::CliError;
 use crate::job::output::model_hash;
 use crate::job::train::{prepare, rl, run_train_job, train, Season, TrainSpec};
-use crate::job::{load_model, JobOptions, RunFolder, WeatherSpec};
+use crate::job::{load_model, JobOptions, RunFolder};
 use crate::model::Plant;
 use crate::rl::sac::{SacConfig, Trainer};
 use clap::Args;
@@ -22,7 +23,7 @@ pub struct TrainArgs {
     /// The model file (.ghm).
     pub file: PathBuf,
     #[command(flatten)]
-    pub weather: WeatherSpec,
+    pub weather: WeatherArgs,
     /// Episodes in all (each one season), the random warm-up included [default: 100].
     #[arg(long, value_name = "N")]
     pub episodes: Option<usize>,
@@ -73,7 +74,7 @@ impl TrainArgs {
     /// The season of the options given (their defaults where not given).
     fn season(&self) -> Season {
         Season {
-            weather_args: self.weather.clone(),
+            weather_args: self.weather.spec(),
             stochastic: self.stochastic,
             uncertainty: match self.stochastic {
                 true => self.uncertainty.unwrap_or(0.05),
@@ -156,7 +157,8 @@ fn recorded_season(dir: &Path, args: &TrainArgs, hash: &str) -> Result<Season, C
             recorded_command(&summary)
         ))
     };
-    if !args.weather.is_default() && args.weather != recorded.weather_args {
+    let weather = args.weather.spec();
+    if !weather.is_default() && weather != recorded.weather_args {
         return Err(conflict("a weather or season-length option"));
     }
     if (args.stochastic && !recorded.stochastic)

@@ -2,9 +2,10 @@
 //! (`job::value`), which rolls the guide out, fits the network and writes `value.json`,
 //! the learning curve and `summary.json`.
 
+use crate::cli::args::{choice, WeatherArgs};
 use crate::cli::CliError;
 use crate::job::value::{run_value_job, ValueSpec};
-use crate::job::{GuideChoice, JobOptions, WeatherSpec};
+use crate::job::{GuideChoice, JobOptions};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -13,14 +14,14 @@ pub struct ValueArgs {
     /// The model file (.ghm).
     pub file: PathBuf,
     /// The guide whose returns are learned.
-    #[arg(long, value_enum, default_value_t = GuideChoice::Sac)]
+    #[arg(long, value_parser = choice::<GuideChoice>(), default_value_t = GuideChoice::default())]
     pub guide: GuideChoice,
     /// The SAC agent (a `ghm train` folder or policy file); default: the one shipped for
     /// the model under models/agents/.
     #[arg(long, value_name = "DIR")]
     pub agent: Option<PathBuf>,
     #[command(flatten)]
-    pub weather: WeatherSpec,
+    pub weather: WeatherArgs,
     /// Roll-outs from perturbed states.
     #[arg(long, value_name = "N", default_value_t = 1000)]
     pub trajectories: usize,
@@ -47,7 +48,7 @@ pub struct ValueArgs {
 pub fn run(args: &ValueArgs) -> Result<(), CliError> {
     let spec = ValueSpec {
         model: args.file.clone(),
-        weather: args.weather.clone(),
+        weather: args.weather.spec(),
         guide: args.guide,
         agent: args.agent.clone(),
         trajectories: args.trajectories,

@@ -16,7 +16,7 @@ pub mod package;
 pub use ffi::GhmSizes;
 
 use crate::control::{Controller, LimitPolicy, StepRecord, StepRequest, Stepper};
-use crate::job::{build_controller_with, ControllerFiles, ControllerSpec, JobError, RunSpec};
+use crate::job::{build_controller_with, ControllerFiles, JobError, RunSpec};
 use crate::model::{Plant, StepOutcome, StepWorkspace};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -75,16 +75,13 @@ impl Bundle {
     /// Reads what `spec` names from disk and packs it; the controller is built once, so a
     /// bundle that would not build is refused here rather than in the program that links it.
     pub fn from_spec(spec: &RunSpec) -> Result<Bundle, EmbedError> {
-        match spec.controller {
-            ControllerSpec::Mpc(_)
-            | ControllerSpec::Rlmpc(_)
-            | ControllerSpec::Policy { .. }
-            | ControllerSpec::Expert => {}
-            _ => {
-                return Err(EmbedError::Argument(
-                    "only mpc, rlmpc, policy and the expert can be compiled".into(),
-                ))
-            }
+        if !spec.controller.kind().is_feedback() {
+            return Err(EmbedError::Argument(format!(
+                "a controller of kind `{}` decides a whole season before it starts: only a \
+                 controller that decides from the state (mpc, rlmpc, policy, the expert) can be \
+                 compiled",
+                spec.controller.kind()
+            )));
         }
         let model = crate::job::load_model(&spec.model)?;
         let root_dir = spec.model.parent().unwrap_or(Path::new(""));
@@ -338,6 +335,7 @@ fn check_finite(what: &str, values: &[f64], names: &[String]) -> Result<(), Embe
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::job::ControllerSpec;
 
     fn spec(model: &str, controller: ControllerSpec) -> RunSpec {
         RunSpec {
@@ -380,12 +378,11 @@ mod tests {
             e.to_string().contains("compile the controller again"),
             "{e}"
         );
-        let optimum = ControllerSpec::Optimum(crate::job::OptimumSpec {
-            init_horizon: "1h".into(),
-            solver: None,
-            max_iterations: 10,
-        });
+        let optimum = ControllerSpec::Optimum(crate::job::OptimumSpec::default());
         let e = Bundle::from_spec(&spec("lettuce.ghm", optimum)).unwrap_err();
-        assert!(e.to_string().contains("only mpc, rlmpc, policy"), "{e}");
+        assert!(
+            e.to_string().contains("only a controller that decides"),
+            "{e}"
+        );
     }
 }

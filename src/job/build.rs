@@ -4,32 +4,29 @@
 
 use crate::agent::PolicyFile;
 use crate::control::{ConstantInput, Controller, Expert, InputTable, Mpc, Policy, ValueFile};
-use crate::job::spec::{
-    ControllerSpec, CostForm, GuideChoice, RlmpcSpec, RunSpec, SolverChoice, WarmStartChoice,
-};
+use crate::job::spec::{ControllerSpec, CostForm, GuideChoice, MpcSpec, RlmpcSpec, RunSpec};
 use crate::job::weather::WeatherSpec;
 use crate::job::JobError;
 use crate::model::Plant;
 use crate::nlp::Bands;
-use crate::solve::{Ipm, Solver, Sqp};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-/// MPC of `plant` over `horizon` steps with the chosen back-end, restart and bands.
+/// MPC of `plant` over `horizon` steps with `spec`'s back-end and restart, planning with
+/// `bands`.
 pub fn make_mpc(
     plant: &Arc<Plant>,
     horizon: usize,
-    solver: SolverChoice,
-    warm_start: Option<WarmStartChoice>,
+    spec: &MpcSpec,
     bands: Bands,
 ) -> Result<Mpc, JobError> {
     let fail = |e: crate::nlp::OcpError| JobError::Spec(e.to_string());
-    let mut mpc = Mpc::new(plant.clone(), horizon, make_solver(solver)?)
+    let mut mpc = Mpc::new(plant.clone(), horizon, spec.solver_spec().build()?)
         .map_err(fail)?
         .with_bands(bands)
         .map_err(fail)?;
-    if let Some(choice) = warm_start {
+    if let Some(choice) = spec.warm_start {
         mpc.warm_start = choice.restart();
     }
     Ok(mpc)
@@ -43,8 +40,13 @@ pub fn bands_name(bands: Bands) -> &'static str {
     }
 }
 
-/// Steps of a horizon given as `3h`, `90min`, `5400s` or a plain number of steps.
-pub fn parse_horizon(text: &str, sample_period_s: f64) -> Result<usize, JobError> {
+/// Steps of a horizon given as `3h`, `90min`, `5400s` or a plain number of steps; `field`
+/// is the spec's field that holds it (`horizon`, `init_horizon`).
+pub fn parse_horizon(
+    field: &'static str,
+    text: &str,
+    sample_period_s: f64,
+) -> Result<usize, JobError> {
     let t = text.trim();
     let seconds = if let Some(h) = t.strip_suffix('h') {
         h.trim().parse::<f64>().ok().map(|v| v * 3600.0)
@@ -56,10 +58,14 @@ pub fn parse_horizon(text: &str, sample_period_s: f64) -> Result<usize, JobError
         t.parse::<usize>().ok().map(|n| n as f64 * sample_period_s)
     };
     let bad = || {
-        JobError::Spec(format!(
-            "--horizon {text}: expected a duration such as 3h or 90min, or a number of steps, \
-             of at least one sample period ({sample_period_s} s)"
-        ))
+        JobError::field(
+            field,
+            text,
+            format!(
+                "expected a duration such as 3h or 90min, or a number of steps, of at least \
+                 one sample period ({sample_period_s} s)"
+            ),
+        )
     };
     let seconds = seconds
         .filter(|s| s.is_finite() && *s > 0.0)
@@ -69,10 +75,14 @@ pub fn parse_horizon(text: &str, sample_period_s: f64) -> Result<usize, JobError
         return Err(bad());
     }
     if steps > MAX_HORIZON_STEPS as f64 {
-        return Err(JobError::Spec(format!(
-            "--horizon {text} is {steps:.3e} steps of {sample_period_s} s; a horizon has at most \
-             {MAX_HORIZON_STEPS} steps"
-        )));
+        return Err(JobError::field(
+            field,
+            text,
+            format!(
+                "{steps:.3e} steps of {sample_period_s} s; a horizon has at most \
+                 {MAX_HORIZON_STEPS} steps"
+            ),
+        ));
     }
     Ok(steps as usize)
 }
@@ -81,24 +91,6 @@ pub fn parse_horizon(text: &str, sample_period_s: f64) -> Result<usize, JobError
 /// its own variables, constraints and derivative buffers, so a larger one is refused before
 /// anything is allocated.
 pub const MAX_HORIZON_STEPS: usize = 100_000;
-
-/// The chosen back-end, or a message saying how to get it.
-pub fn make_solver(choice: SolverChoice) -> Result<Box<dyn Solver>, JobError> {
-    match choice {
-        SolverChoice::Ipm => Ok(Box::new(Ipm::default())),
-        SolverChoice::Sqp => Ok(Box::new(Sqp::default())),
-        #[cfg(feature = "ipopt")]
-        SolverChoice::Ipopt => Ok(Box::new(crate::solve::Ipopt::new(
-            crate::solve::IpoptOptions::default(),
-        ))),
-        #[cfg(not(feature = "ipopt"))]
-        SolverChoice::Ipopt => Err(JobError::Spec(
-            "--solver ipopt needs a build with the IPOPT back-end: install IPOPT \
-             (Debian: coinor-libipopt-dev) and build with `cargo build --release --features ipopt`"
-                .into(),
-        )),
-    }
-}
 
 /// The agents shipped for `model_file`: `models/agents/<stem>/` beside it, trained on the
 /// Venlo 2014 season; on ghm's built-in weather, its `builtin/` subfolder where one is
@@ -138,11 +130,15 @@ pub fn resolve_policy(
             let dir = shipped_dir(model_file, weather);
             let path = dir.join("policy.json");
             if !path.is_file() {
-                return Err(JobError::Spec(format!(
-                    "no agent shipped for {} (looked in {}); train one with `ghm train` and pass --agent DIR",
-                    model_file.display(),
-                    dir.display()
-                )));
+                return Err(JobError::unset(
+                    "agent",
+                    format!(
+                        "no agent shipped for {} (looked in {}); train one with `ghm train` and \
+                         name its folder",
+                        model_file.display(),
+                        dir.display()
+                    ),
+                ));
             }
             if announce {
                 eprintln!("using the agent shipped in {}", dir.display());
@@ -191,9 +187,8 @@ pub fn guide_factory(
     let fail = |e: crate::control::ControlError| JobError::Spec(e.to_string());
     match choice {
         GuideChoice::Sac => {
-            let file = policy.ok_or_else(|| {
-                JobError::Spec("the SAC guide needs a policy (--agent DIR)".into())
-            })?;
+            let file =
+                policy.ok_or_else(|| JobError::unset("agent", "the SAC guide needs a policy"))?;
             let policy = Policy::new(plant, file).map_err(fail)?;
             Ok(Box::new(move || {
                 Box::new(policy.clone()) as Box<dyn Controller + Send>
@@ -248,7 +243,10 @@ impl ControllerFiles {
                     files.value = Some(resolve_value(&spec.model, &spec.weather, rlmpc, plant)?);
                 }
             }
-            _ => {}
+            ControllerSpec::Inputs(_)
+            | ControllerSpec::Expert
+            | ControllerSpec::Mpc(_)
+            | ControllerSpec::Optimum(_) => {}
         }
         Ok(files)
     }
@@ -283,15 +281,18 @@ pub fn resolve_value(
         None => shipped_dir(model_file, weather).join(format!("value-{}.json", spec.guide.name())),
     };
     if !path.is_file() {
-        return Err(JobError::Spec(format!(
-            "no value network at {}: fit one with `ghm value{}` and pass --value DIR",
+        return Err(JobError::field(
+            "value",
             path.display(),
-            if spec.guide == GuideChoice::Expert {
-                " --guide expert"
-            } else {
-                ""
-            }
-        )));
+            format!(
+                "no value network there: fit one with `ghm value{}` and name its folder",
+                if spec.guide == GuideChoice::Expert {
+                    " --guide expert"
+                } else {
+                    ""
+                }
+            ),
+        ));
     }
     let value = ValueFile::load(&path).map_err(|e| JobError::Spec(e.to_string()))?;
     check_value_fits(&value, &path, &plant.model)?;
@@ -335,22 +336,28 @@ pub fn parse_inputs(spec: Option<&str>, plant: &Plant) -> Result<Box<dyn Control
         let values: Result<Vec<f64>, _> =
             list.split(',').map(|s| s.trim().parse::<f64>()).collect();
         let values = values.map_err(|_| {
-            JobError::Spec(format!(
-                "--inputs const:{list}: expected {nu} comma-separated numbers"
-            ))
+            JobError::field(
+                "inputs",
+                spec,
+                format!("expected {nu} comma-separated numbers"),
+            )
         })?;
         if values.len() != nu {
-            return Err(JobError::Spec(format!(
-                "--inputs const: gives {} values; the model has {nu} inputs ({})",
-                values.len(),
-                plant
-                    .model
-                    .inputs
-                    .iter()
-                    .map(|u| u.info.name.as_str())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            )));
+            return Err(JobError::field(
+                "inputs",
+                spec,
+                format!(
+                    "gives {} values; the model has {nu} inputs ({})",
+                    values.len(),
+                    plant
+                        .model
+                        .inputs
+                        .iter()
+                        .map(|u| u.info.name.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            ));
         }
         if let Some((u, v)) = plant
             .model
@@ -359,10 +366,14 @@ pub fn parse_inputs(spec: Option<&str>, plant: &Plant) -> Result<Box<dyn Control
             .zip(&values)
             .find(|(_, v)| !v.is_finite())
         {
-            return Err(JobError::Spec(format!(
-                "--inputs const:{list}: the value of {} is {v}; every input must be a finite number",
-                u.info.name
-            )));
+            return Err(JobError::field(
+                "inputs",
+                spec,
+                format!(
+                    "the value of {} is {v}; every input must be a finite number",
+                    u.info.name
+                ),
+            ));
         }
         return Ok(Box::new(ConstantInput(values)));
     }
@@ -411,13 +422,13 @@ mod tests {
 
     #[test]
     fn horizons_parse_in_hours_minutes_seconds_and_steps() {
-        assert_eq!(parse_horizon("3h", 1800.0).unwrap(), 6);
-        assert_eq!(parse_horizon("90min", 1800.0).unwrap(), 3);
-        assert_eq!(parse_horizon("1800s", 1800.0).unwrap(), 1);
-        assert_eq!(parse_horizon("4", 1800.0).unwrap(), 4);
-        assert_eq!(parse_horizon("0.5h", 1800.0).unwrap(), 1);
+        assert_eq!(parse_horizon("horizon", "3h", 1800.0).unwrap(), 6);
+        assert_eq!(parse_horizon("horizon", "90min", 1800.0).unwrap(), 3);
+        assert_eq!(parse_horizon("horizon", "1800s", 1800.0).unwrap(), 1);
+        assert_eq!(parse_horizon("horizon", "4", 1800.0).unwrap(), 4);
+        assert_eq!(parse_horizon("horizon", "0.5h", 1800.0).unwrap(), 1);
         for bad in ["0h", "45min", "-1h", "abc", "", "1.5"] {
-            assert!(parse_horizon(bad, 1800.0).is_err(), "{bad}");
+            assert!(parse_horizon("horizon", bad, 1800.0).is_err(), "{bad}");
         }
     }
 

@@ -12,6 +12,7 @@
 //! job can be recognised and never run again.
 
 pub mod build;
+mod choice;
 pub mod folder;
 pub mod output;
 mod season;
@@ -21,6 +22,7 @@ pub mod value;
 mod weather;
 
 pub use build::{load_model, ControllerFiles};
+pub use choice::Choice;
 pub use folder::RunFolder;
 pub use season::{
     build_controller, build_controller_with, print_metrics, run_external_season_job,
@@ -28,13 +30,37 @@ pub use season::{
     StandaloneController,
 };
 pub use spec::{
-    BandsChoice, ControllerSpec, CostForm, GuideChoice, MpcSpec, OptimumSpec, PlantSpec, RlmpcSpec,
-    RunSpec, SolverChoice, Variant, WarmStartChoice,
+    BandsChoice, ControllerKind, ControllerSpec, CostForm, GuideChoice, InputsSpec, MpcSpec,
+    OptimumSpec, PlantSpec, RlmpcSpec, RunSpec, SolverChoice, SolverSpec, Variant, WarmStartChoice,
 };
 pub use weather::WeatherSpec;
 
 use std::path::PathBuf;
 use thiserror::Error;
+
+impl JobError {
+    /// The spec's `field` holds `value`, which `message` says is wrong.
+    pub fn field(
+        field: &'static str,
+        value: impl std::fmt::Display,
+        message: impl Into<String>,
+    ) -> JobError {
+        JobError::Field {
+            field,
+            value: Some(value.to_string()),
+            message: message.into(),
+        }
+    }
+
+    /// The spec's `field` is missing or its default does not apply, as `message` says.
+    pub fn unset(field: &'static str, message: impl Into<String>) -> JobError {
+        JobError::Field {
+            field,
+            value: None,
+            message: message.into(),
+        }
+    }
+}
 
 /// Why a job could not run, or ran and failed; each message says what to do.
 #[derive(Debug, Error)]
@@ -58,6 +84,18 @@ pub enum JobError {
     /// inputs) is missing or does not fit the model; the message says which.
     #[error("{0}")]
     Spec(String),
+    /// A field of the spec holds a value it cannot have, or names a file that is missing
+    /// or does not fit. `field` is its name in a spec (`horizon`, `start_row`); the command
+    /// line says it as its flag (`--horizon`, `--start-row`).
+    #[error("`{field}`{}: {message}", value.as_ref().map(|v| format!(" = {v}")).unwrap_or_default())]
+    Field {
+        /// The field's name in a spec.
+        field: &'static str,
+        /// The value it holds, as written; `None` where it holds none.
+        value: Option<String>,
+        /// What is wrong with it and what to do.
+        message: String,
+    },
     /// A run folder or one of its files could not be created or written: the I/O error
     /// is kept as the source.
     #[error("cannot write {path}: {source}")]

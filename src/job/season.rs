@@ -5,14 +5,13 @@
 use crate::control::TerminalCostForm;
 use crate::control::{Controller, Expert, InputTable, Mpc, Policy, RlGuidance, RlMpcOptions};
 use crate::job::build::{
-    bands_name, guide_factory, load_model, make_mpc, make_solver, parse_horizon, parse_inputs,
-    ControllerFiles,
+    bands_name, guide_factory, load_model, make_mpc, parse_horizon, parse_inputs, ControllerFiles,
 };
 use crate::job::folder::{self, RunFolder};
 use crate::job::output::{figure, model_hash, plot_trajectory, write_summary, TrajectoryWriter};
 use crate::job::spec::{
     ControllerSpec, CostForm, MpcSpec, OptimumSpec, PlantSpec, RlmpcSpec, RunSpec, SolverChoice,
-    Variant, WarmStartChoice,
+    SolverSpec, Variant, WarmStartChoice,
 };
 use crate::job::JobError;
 use crate::model::Plant;
@@ -20,7 +19,6 @@ use crate::sim::metrics::Metrics;
 use crate::sim::optimum::season_optimum;
 use crate::sim::season::{run_season, SeasonConfig, StepLog};
 use crate::sim::weather::Weather;
-use crate::solve::{Ipm, IpmOptions, Solver, Sqp, SqpOptions};
 use serde_json::json;
 use std::path::Path;
 use std::sync::Arc;
@@ -234,10 +232,12 @@ pub fn build_controller_with(
     plant: Arc<Plant>,
     files: ControllerFiles,
 ) -> Result<StandaloneController, JobError> {
-    if matches!(spec.controller, ControllerSpec::Optimum(_)) {
-        return Err(JobError::Spec(
-            "the season optimum decides a whole season at once; run it as a season".into(),
-        ));
+    if !spec.controller.kind().is_feedback() {
+        return Err(JobError::Spec(format!(
+            "a controller of kind `{}` decides a whole season before it starts; run it as a \
+             season",
+            spec.controller.kind()
+        )));
     }
     let quiet = JobOptions {
         overwrite: false,
@@ -271,12 +271,9 @@ fn build(
         enforce_limits: true,
     };
     match &spec.controller {
-        ControllerSpec::Inputs {
-            inputs,
-            enforce_limits,
-        } => {
-            built.controller = parse_inputs(inputs.as_deref(), plant)?;
-            built.enforce_limits = *enforce_limits;
+        ControllerSpec::Inputs(inputs) => {
+            built.controller = parse_inputs(inputs.inputs.as_deref(), plant)?;
+            built.enforce_limits = inputs.enforce_limits;
         }
         ControllerSpec::Expert => {
             built.controller = Box::new(Expert::new(plant.clone()).map_err(fail)?);
@@ -327,9 +324,9 @@ fn build_mpc(
     plant: &Arc<Plant>,
     plant_spec: &PlantSpec,
 ) -> Result<(Mpc, usize, serde_json::Value), JobError> {
-    let horizon = parse_horizon(&spec.horizon, plant.model.sample_period)?;
+    let horizon = parse_horizon("horizon", &spec.horizon, plant.model.sample_period)?;
     let bands = spec.bands.resolve(plant_spec);
-    let mpc = make_mpc(plant, horizon, spec.solver, spec.warm_start, bands)?;
+    let mpc = make_mpc(plant, horizon, spec, bands)?;
     let extra = json!({
         "horizon_steps": horizon,
         "horizon_h": horizon as f64 * plant.model.sample_period / 3600.0,
@@ -349,7 +346,7 @@ fn build_rlmpc(
     let make_guide = guide_factory(plant, rlmpc.guide, files.policy)?;
     let value = match rlmpc.terminal_cost {
         CostForm::None => None,
-        _ => Some(files.value.ok_or_else(|| {
+        CostForm::Exact | CostForm::Taylor => Some(files.value.ok_or_else(|| {
             JobError::Spec("RL-guided MPC with a terminal cost needs a value network".into())
         })?),
     };
@@ -366,7 +363,7 @@ fn build_rlmpc(
         epsilon: (rlmpc.variant == Variant::Rlmpc).then_some(rlmpc.epsilon),
         terminal_cost: match rlmpc.terminal_cost {
             CostForm::Taylor => TerminalCostForm::Taylor,
-            _ => TerminalCostForm::Exact,
+            CostForm::Exact | CostForm::None => TerminalCostForm::Exact,
         },
     };
     let guidance = RlGuidance::new(
@@ -377,19 +374,13 @@ fn build_rlmpc(
         options,
     )
     .map_err(|e| JobError::Spec(e.to_string()))?;
-    let (mpc, horizon, mut extra) = build_mpc(&rlmpc.mpc(), plant, plant_spec)?;
+    let (mpc, horizon, mut extra) = build_mpc(&rlmpc.mpc, plant, plant_spec)?;
     if let Some(map) = extra.as_object_mut() {
         map.extend([
             ("guide".into(), json!(rlmpc.guide.name())),
-            (
-                "variant".into(),
-                json!(format!("{:?}", rlmpc.variant).to_lowercase()),
-            ),
+            ("variant".into(), json!(rlmpc.variant)),
             ("epsilon".into(), json!(rlmpc.epsilon)),
-            (
-                "terminal_cost".into(),
-                json!(format!("{:?}", rlmpc.terminal_cost).to_lowercase()),
-            ),
+            ("terminal_cost".into(), json!(rlmpc.terminal_cost)),
         ]);
     }
     Ok((mpc.with_guidance(Box::new(guidance)), horizon, extra))
@@ -408,14 +399,19 @@ fn solve_optimum(
             println!("{line}");
         }
     };
-    let horizon = parse_horizon(&optimum.init_horizon, plant.model.sample_period)?;
+    let horizon = parse_horizon(
+        "init_horizon",
+        &optimum.init_horizon,
+        plant.model.sample_period,
+    )?;
     let weather = spec.weather.load(&plant.model, steps, horizon)?;
     say(format!(
         "initialising from a closed loop of MPC over {}",
         optimum.init_horizon
     ));
-    let mut mpc = Mpc::new(plant.clone(), horizon, Box::new(Sqp::default()))
-        .map_err(|e| JobError::Spec(e.to_string()))?;
+    let initialiser = SolverSpec::new(SolverChoice::Sqp).build()?;
+    let mut mpc =
+        Mpc::new(plant.clone(), horizon, initialiser).map_err(|e| JobError::Spec(e.to_string()))?;
     let mut inputs = Vec::with_capacity(steps * plant.layout.nu);
     let mut collect = |log: &StepLog| inputs.extend_from_slice(&log.input);
     let config = SeasonConfig {
@@ -431,24 +427,7 @@ fn solve_optimum(
     ));
 
     say(format!("solving the season as one NLP ({steps} stages)"));
-    let choice = optimum.solver.unwrap_or(if cfg!(feature = "ipopt") {
-        SolverChoice::Ipopt
-    } else {
-        SolverChoice::Ipm
-    });
-    let mut solver: Box<dyn Solver> = match choice {
-        SolverChoice::Ipm => Box::new(Ipm::new(IpmOptions {
-            max_iterations: optimum.max_iterations,
-            trace: options.verbose,
-            ..IpmOptions::default()
-        })),
-        SolverChoice::Sqp => Box::new(Sqp::new(SqpOptions {
-            max_iterations: optimum.max_iterations,
-            trace: options.verbose,
-            ..SqpOptions::default()
-        })),
-        other => make_solver(other)?,
-    };
+    let mut solver = optimum.solver_spec(options.verbose).build()?;
     let clock = Instant::now();
     let result = season_optimum(plant.clone(), &weather, steps, &inputs, solver.as_mut())
         .map_err(|e| JobError::Spec(e.to_string()))?;

@@ -78,29 +78,35 @@ impl TrainSpec {
         }
     }
 
-    /// Refuses settings that cannot train: the message names the flag.
+    /// Refuses settings that cannot train: the error names the field.
     pub fn check(&self) -> Result<(), JobError> {
         if self.checkpoint_every == 0 {
-            return Err(JobError::Spec(
-                "--checkpoint-every must be at least 1".into(),
-            ));
+            return Err(JobError::field("checkpoint_every", 0, "must be at least 1"));
         }
         if self.stochastic && !(self.uncertainty > 0.0 && self.uncertainty < 1.0) {
-            return Err(JobError::Spec(
-                "--stochastic needs --uncertainty in (0, 1)".into(),
+            return Err(JobError::field(
+                "uncertainty",
+                self.uncertainty,
+                "a stochastic training needs a δ in (0, 1)",
             ));
         }
         if self.episodes > MAX_EPISODES {
-            return Err(JobError::Spec(format!(
-                "--episodes {}: a training has at most {MAX_EPISODES} episodes",
-                self.episodes
-            )));
+            return Err(JobError::field(
+                "episodes",
+                self.episodes,
+                format!("a training has at most {MAX_EPISODES} episodes"),
+            ));
         }
         if self.warmup >= self.episodes {
-            return Err(JobError::Spec(format!(
-                "--warmup {} is not fewer than --episodes {}: the training would end before it learns anything",
-                self.warmup, self.episodes
-            )));
+            return Err(JobError::field(
+                "warmup",
+                self.warmup,
+                format!(
+                    "not fewer than the {} episodes: the training would end before it learns \
+                     anything",
+                    self.episodes
+                ),
+            ));
         }
         Ok(())
     }

@@ -57,19 +57,20 @@ const MAX_EPOCHS: usize = 1_000_000;
 pub fn run_value_job(spec: &ValueSpec, out: &Path, options: &JobOptions) -> Result<(), JobError> {
     let args = spec;
     if !(args.spread >= 0.0 && args.spread < 1.0) {
-        return Err(JobError::Spec("--spread must be in [0, 1)".into()));
-    }
-    if args.trajectories == 0 || args.epochs == 0 {
-        return Err(JobError::Spec(
-            "--trajectories and --epochs must be at least 1".into(),
-        ));
+        return Err(JobError::field("spread", args.spread, "must be in [0, 1)"));
     }
     // Refused before anything is allocated for them (the samples, the learning curve).
-    if args.trajectories > MAX_TRAJECTORIES || args.epochs > MAX_EPOCHS {
-        return Err(JobError::Spec(format!(
-            "--trajectories {} / --epochs {}: at most {MAX_TRAJECTORIES} trajectories and {MAX_EPOCHS} epochs",
-            args.trajectories, args.epochs
-        )));
+    for (field, value, most) in [
+        ("trajectories", args.trajectories, MAX_TRAJECTORIES),
+        ("epochs", args.epochs, MAX_EPOCHS),
+    ] {
+        if value == 0 || value > most {
+            return Err(JobError::field(
+                field,
+                value,
+                format!("must be from 1 to {most}"),
+            ));
+        }
     }
     let model = load_model(&args.model)?;
     let plant = Arc::new(Plant::new(model));
@@ -80,7 +81,7 @@ pub fn run_value_job(spec: &ValueSpec, out: &Path, options: &JobOptions) -> Resu
             .states
             .iter()
             .position(|s| &s.info.name == name)
-            .ok_or_else(|| JobError::Spec(format!("--state {name}: no such state")))?,
+            .ok_or_else(|| JobError::field("state", name, "no such state in the model"))?,
     };
     let steps = args.weather.steps(&plant.model)?;
     let weather = args.weather.load(&plant.model, steps, 0)?;

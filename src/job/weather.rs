@@ -1,5 +1,5 @@
-//! The weather a season runs on and its length: the options every season command shares
-//! (flattened into their arguments), a study's `[weather]` table, and what is recorded in
+//! The weather a season runs on and its length: what every season command's weather flags
+//! say (`cli` maps them onto it), a study's `[weather]` table, and what is recorded in
 //! a training's `summary.json` so that `ghm train --resume` continues on the same season.
 
 use crate::job::JobError;
@@ -7,39 +7,37 @@ use crate::lang::Model;
 use crate::sim::season::MAX_SEASON_STEPS;
 use crate::sim::weather::Weather;
 use crate::sim::weather_source::{season_weather, SourceError, WeatherSource};
-use clap::Args;
 use std::path::PathBuf;
 
+/// A season's length when neither `days` nor `steps` is given.
+pub const DEFAULT_DAYS: f64 = 40.0;
+
 /// The weather source and the season's slice of it (first row, length).
-#[derive(Debug, Clone, PartialEq, Args, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct WeatherSpec {
-    /// Weather CSV with a header of named columns (e.g. ../shared/data/venlo2014_30min_model_units.csv).
-    /// Without --weather or --knmi, ghm's built-in Dutch late-winter season is used.
-    #[arg(long, value_name = "CSV", conflicts_with = "knmi")]
+    /// Weather CSV with a header of named columns (e.g.
+    /// `../shared/data/venlo2014_30min_model_units.csv`). Without `weather` or `knmi`,
+    /// ghm's built-in Dutch late-winter season is used.
     pub weather: Option<PathBuf>,
     /// First data row of the weather file used as step 0 (Venlo: 1394 = 2014-02-08 01:00).
-    #[arg(long, value_name = "N", default_value_t = 0)]
     pub start_row: usize,
-    /// KNMI hourly station file (uurgegevens), converted and interpolated to the model's period.
-    #[arg(long, value_name = "FILE")]
+    /// KNMI hourly station file (uurgegevens), converted and interpolated to the model's
+    /// period.
     pub knmi: Option<PathBuf>,
     /// Outdoor CO₂ assumed with KNMI data (which has none), in ppm.
-    #[arg(long, value_name = "PPM", default_value_t = 420.0)]
     pub knmi_co2: f64,
     /// Seed of the built-in weather generator.
-    #[arg(long, value_name = "S", default_value_t = 2014)]
     pub weather_seed: u64,
-    /// Season length in days (at most 10 000 000 steps).
-    #[arg(long, value_name = "D", conflicts_with = "steps")]
+    /// Season length in days (at most 10 000 000 steps); neither this nor `steps`:
+    /// 40 days.
     pub days: Option<f64>,
-    /// Season length in steps (default: 40 days; at most 10 000 000).
-    #[arg(long, value_name = "N")]
+    /// Season length in steps (at most 10 000 000).
     pub steps: Option<usize>,
 }
 
 impl Default for WeatherSpec {
-    /// ghm's built-in season, 40 days (the flags' defaults).
+    /// ghm's built-in season, 40 days.
     fn default() -> Self {
         WeatherSpec {
             weather: None,
@@ -59,7 +57,7 @@ impl WeatherSpec {
         *self == WeatherSpec::default()
     }
 
-    /// Whether the season runs on ghm's built-in weather (no `--weather`, no `--knmi`).
+    /// Whether the season runs on ghm's built-in weather (no `weather`, no `knmi`).
     pub fn is_builtin(&self) -> bool {
         self.weather.is_none() && self.knmi.is_none()
     }
@@ -67,34 +65,51 @@ impl WeatherSpec {
     /// Number of steps of the season, at least 1 and at most [`MAX_SEASON_STEPS`]; checked
     /// before anything is allocated for it.
     pub fn steps(&self, model: &Model) -> Result<usize, JobError> {
+        if self.weather.is_some() && self.knmi.is_some() {
+            return Err(JobError::unset(
+                "knmi",
+                "give either a weather CSV or a KNMI file, not both",
+            ));
+        }
         let per_day = 86400.0 / model.sample_period;
-        let (steps, given) = match (self.steps, self.days) {
-            (Some(n), _) => (n as f64, format!("--steps {n} is {n} steps")),
-            (None, Some(d)) => (
-                (d * per_day).round(),
-                format!("--days {d:e} makes {:.3e} steps", (d * per_day).round()),
-            ),
+        let (steps, field, value) = match (self.steps, self.days) {
+            (Some(_), Some(_)) => {
+                return Err(JobError::unset(
+                    "steps",
+                    "give the season's length in days or in steps, not both",
+                ))
+            }
+            (Some(n), None) => (n as f64, "steps", n.to_string()),
+            (None, Some(d)) => ((d * per_day).round(), "days", d.to_string()),
             (None, None) => (
-                (40.0 * per_day).round(),
-                "40 days make too many steps".into(),
+                (DEFAULT_DAYS * per_day).round(),
+                "days",
+                format!("{DEFAULT_DAYS} (the default)"),
             ),
         };
         if !(steps >= 1.0 && steps.is_finite()) {
-            return Err(JobError::Spec(
-                "the season must have at least one step (check --days / --steps)".into(),
+            return Err(JobError::field(
+                field,
+                value,
+                "the season must have at least one step",
             ));
         }
         if steps > MAX_SEASON_STEPS as f64 {
-            return Err(JobError::Spec(format!(
-                "{given} of {} s; a season has at most {MAX_SEASON_STEPS} steps",
-                model.sample_period
-            )));
+            return Err(JobError::field(
+                field,
+                value,
+                format!(
+                    "{steps:.3e} steps of {} s; a season has at most {MAX_SEASON_STEPS} steps",
+                    model.sample_period
+                ),
+            ));
         }
         if self.start_row > MAX_SEASON_STEPS {
-            return Err(JobError::Spec(format!(
-                "--start-row {}: the first row must be at most {MAX_SEASON_STEPS}",
-                self.start_row
-            )));
+            return Err(JobError::field(
+                "start_row",
+                self.start_row,
+                format!("the first row must be at most {MAX_SEASON_STEPS}"),
+            ));
         }
         Ok(steps as usize)
     }

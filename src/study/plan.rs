@@ -30,7 +30,9 @@
 
 use crate::job::train::TrainSpec;
 use crate::job::value::ValueSpec;
-use crate::job::{ControllerSpec, CostForm, GuideChoice, PlantSpec, RunSpec, WeatherSpec};
+use crate::job::{
+    Choice, ControllerKind, ControllerSpec, CostForm, GuideChoice, PlantSpec, RunSpec, WeatherSpec,
+};
 use crate::study::StudyError;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -279,11 +281,7 @@ fn plan_file(file: StudyFile, base: &Path, out: &Path, text: &str) -> Result<Vec
                     model: model_path.clone(),
                     weather: weather.clone(),
                     plant: PlantSpec::NOMINAL,
-                    controller: ControllerSpec::Optimum(crate::job::OptimumSpec {
-                        init_horizon: "1h".into(),
-                        solver: None,
-                        max_iterations: 500,
-                    }),
+                    controller: ControllerSpec::Optimum(crate::job::OptimumSpec::default()),
                 }),
                 needs: Vec::new(),
                 folder: Path::new(&stem).join("optimum"),
@@ -294,7 +292,7 @@ fn plan_file(file: StudyFile, base: &Path, out: &Path, text: &str) -> Result<Vec
             });
         }
         for c in &controllers {
-            let horizons: Vec<String> = match (&c.horizon, c.needs_horizon) {
+            let horizons: Vec<String> = match (&c.horizon, c.kind.has_horizon()) {
                 (Some(h), _) => vec![h.clone()],
                 (None, true) if file.horizons.is_empty() => {
                     return Err(at_line(text, c.span.clone(), format!(
@@ -413,7 +411,11 @@ impl OwnAgents<'_> {
                     r.value = Some(use_own(Own::Value(r.guide), &mut needs));
                 }
             }
-            _ => {}
+            ControllerSpec::Policy { .. }
+            | ControllerSpec::Inputs(_)
+            | ControllerSpec::Expert
+            | ControllerSpec::Mpc(_)
+            | ControllerSpec::Optimum(_) => {}
         }
         (controller, needs)
     }
@@ -497,9 +499,8 @@ impl OwnAgents<'_> {
 /// A `[[controllers]]` entry: its name, kind and the rest of its fields.
 struct ControllerEntry {
     name: String,
-    kind: String,
+    kind: ControllerKind,
     horizon: Option<String>,
-    needs_horizon: bool,
     fields: toml::Table,
     /// Where its table is in the study file.
     span: std::ops::Range<usize>,
@@ -535,18 +536,33 @@ fn controller_entry(
     span: std::ops::Range<usize>,
 ) -> Result<ControllerEntry, String> {
     let mut fields = table.clone();
+    let kinds = || {
+        ControllerKind::ALL
+            .iter()
+            .filter(|k| **k != ControllerKind::Optimum)
+            .map(|k| k.name())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
     let kind = match fields.get("kind") {
-        Some(toml::Value::String(k)) => k.clone(),
+        Some(toml::Value::String(k)) => ControllerKind::from_name(k).ok_or_else(|| {
+            format!(
+                "controller {}: unknown `kind` = \"{k}\" (one of {})",
+                index + 1,
+                kinds()
+            )
+        })?,
         _ => {
             return Err(format!(
-                "controller {} has no `kind` (one of inputs, expert, policy, mpc, rlmpc)",
-                index + 1
+                "controller {} has no `kind` (one of {})",
+                index + 1,
+                kinds()
             ))
         }
     };
     let name = match fields.remove("name") {
         Some(toml::Value::String(n)) if !n.trim().is_empty() => n,
-        None => kind.clone(),
+        None => kind.name().to_string(),
         Some(other) => {
             return Err(format!(
                 "controller {}: `name` = {other} is not a name",
@@ -563,13 +579,12 @@ fn controller_entry(
             ))
         }
     };
-    if kind == "optimum" {
+    if kind == ControllerKind::Optimum {
         return Err(format!(
             "controller `{name}`: the optimum is asked for with `optimum = true` at the top of the study"
         ));
     }
     Ok(ControllerEntry {
-        needs_horizon: kind == "mpc" || kind == "rlmpc",
         name,
         kind,
         horizon,
@@ -673,7 +688,7 @@ mod tests {
         let ControllerSpec::Rlmpc(r) = &season(4).controller else {
             panic!("{:?}", season(4).controller);
         };
-        assert_eq!(r.horizon, "6h");
+        assert_eq!(r.mpc.horizon, "6h");
         assert!(jobs.iter().all(|j| j.needs.is_empty()));
     }
 

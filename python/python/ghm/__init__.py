@@ -34,7 +34,7 @@ from gymnasium import spaces
 
 from . import _ghm
 from ._ghm import DivergedError, ModelError, load
-from .control import Controller, Expert, Mpc, Policy, RlMpc, Season, optimum, simulate
+from .control import Controller, Expert, Mpc, Policy, RlMpc, Season, defaults, optimum, simulate
 from .policy import from_sb3, policy_action, read_policy, write_policy
 
 __all__ = [
@@ -51,6 +51,7 @@ __all__ = [
     "Expert",
     "simulate",
     "optimum",
+    "defaults",
     "read_policy",
     "write_policy",
     "policy_action",

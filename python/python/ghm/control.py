@@ -28,7 +28,7 @@ import numpy as np
 
 from . import _ghm
 
-__all__ = ["Season", "Controller", "Mpc", "RlMpc", "Policy", "Expert", "simulate", "optimum"]
+__all__ = ["Season", "Controller", "Mpc", "RlMpc", "Policy", "Expert", "simulate", "optimum", "defaults"]
 
 
 class Season:
@@ -55,57 +55,66 @@ class Season:
         )
 
 
-def _spec(
-    model,
-    controller: dict,
-    weather=None,
-    start_row: int = 0,
-    days: Optional[float] = 40.0,
-    steps: Optional[int] = None,
-    uncertainty: float = 0.0,
-    seed: int = 4,
-    weather_seed: int = 2014,
-    knmi=None,
-) -> str:
-    return json.dumps(
-        {
-            "model": os.fspath(model),
-            "weather": {
-                "weather": None if weather is None else os.fspath(weather),
-                "knmi": None if knmi is None else os.fspath(knmi),
-                "start_row": int(start_row),
-                "weather_seed": int(weather_seed),
-                "days": None if steps is not None else (None if days is None else float(days)),
-                "steps": None if steps is None else int(steps),
-            },
-            "plant": {"uncertainty": float(uncertainty), "seed": int(seed)},
-            "controller": controller,
-        }
-    )
+def defaults(kind: str) -> dict:
+    """The settings of a controller of ``kind`` (``"mpc"``, ``"rlmpc"``, ``"optimum"``,
+    ``"inputs"``, ``"policy"``, ``"expert"``) at ghm's defaults, those of its command:
+    ``ghm.defaults("mpc")["horizon"] == "3h"``. A setting left out (``None``) in the
+    classes below takes this default."""
+    return json.loads(_ghm.controller_defaults(kind))
+
+
+def _plain(value):
+    """A setting as JSON holds it: paths as strings."""
+    return os.fspath(value) if isinstance(value, os.PathLike) else value
+
+
+def _settings(kind: str, given: dict) -> dict:
+    """ghm's defaults for ``kind`` with the settings given (those not ``None``) over them;
+    a misspelt one is refused by ghm."""
+    settings = defaults(kind)
+    settings.update({key: _plain(value) for key, value in given.items() if value is not None})
+    return settings
+
+
+_WEATHER = ("weather", "knmi", "start_row", "weather_seed", "days", "steps", "knmi_co2")
+_PLANT = ("uncertainty", "seed")
+
+
+def _spec(model, controller: dict, **season) -> str:
+    """The job spec of a season: ``season`` holds the weather options (``weather``,
+    ``knmi``, ``start_row``, ``weather_seed``, ``days`` or ``steps``, ``knmi_co2``) and
+    the plant's (``uncertainty``, ``seed``); those left out take ghm's defaults (40 days of
+    the built-in weather, the nominal plant)."""
+    unknown = sorted(set(season) - set(_WEATHER) - set(_PLANT))
+    if unknown:
+        raise ValueError(f"unknown season option(s) {unknown}; expected some of {sorted(_WEATHER + _PLANT)}")
+    pick = lambda names: {k: _plain(season[k]) for k in names if season.get(k) is not None}
+    return json.dumps({"model": os.fspath(model), "weather": pick(_WEATHER), "plant": pick(_PLANT), "controller": controller})
 
 
 def _season(model, controller: dict, **season) -> Season:
     return Season(*_ghm.season(_spec(model, controller, **season)))
 
 
-def simulate(model, inputs: Optional[str] = None, *, enforce_limits: bool = True, **season) -> Season:
+def simulate(model, inputs: Optional[str] = None, *, enforce_limits: Optional[bool] = None, **season) -> Season:
     """A season with fixed inputs (``ghm simulate``): ``inputs`` is ``"const:u1,u2,..."``,
     a CSV file, or ``None`` for the model's start input. ``season``: ``weather``,
     ``start_row``, ``days`` or ``steps``, ``uncertainty``, ``seed``, ``weather_seed``."""
-    return _season(
-        model,
-        {"kind": "inputs", "inputs": None if inputs is None else os.fspath(inputs), "enforce_limits": enforce_limits},
-        **season,
-    )
+    return _season(model, _settings("inputs", {"inputs": inputs, "enforce_limits": enforce_limits}), **season)
 
 
-def optimum(model, *, init_horizon: str = "1h", solver: Optional[str] = None, max_iterations: int = 500, **season) -> Season:
-    """The season as one NLP with perfect foresight (``ghm optimum``), on the nominal plant."""
-    return _season(
-        model,
-        {"kind": "optimum", "init_horizon": init_horizon, "solver": solver, "max_iterations": max_iterations},
-        **season,
-    )
+def optimum(
+    model,
+    *,
+    init_horizon: Optional[str] = None,
+    solver: Optional[str] = None,
+    max_iterations: Optional[int] = None,
+    **season,
+) -> Season:
+    """The season as one NLP with perfect foresight (``ghm optimum``), on the nominal plant.
+    Settings left out take ghm's defaults (``ghm.defaults("optimum")``)."""
+    given = {"init_horizon": init_horizon, "solver": solver, "max_iterations": max_iterations}
+    return _season(model, _settings("optimum", given), **season)
 
 
 class Controller:
@@ -153,43 +162,21 @@ class Controller:
 
 
 class Mpc(Controller):
-    """Economic MPC (``ghm mpc``)."""
+    """Economic MPC (``ghm mpc``). ``settings``: ``solver``, ``warm_start``, ``bands``;
+    each left out takes ghm's default (``ghm.defaults("mpc")``: a 3 h horizon, ``ipm``)."""
 
-    def __init__(self, model, horizon: str = "3h", solver: str = "ipm", bands: str = "auto"):
-        super().__init__(model, {"kind": "mpc", "horizon": horizon, "solver": solver, "bands": bands})
+    def __init__(self, model, horizon: Optional[str] = None, **settings):
+        super().__init__(model, _settings("mpc", {"horizon": horizon, **settings}))
 
 
 class RlMpc(Controller):
-    """RL-guided MPC (``ghm rlmpc``): the guide's terminal cost, region and warm start."""
+    """RL-guided MPC (``ghm rlmpc``): the guide's terminal cost, region and warm start.
+    ``settings``: ``guide``, ``agent``, ``value``, ``variant``, ``epsilon``,
+    ``terminal_cost`` and MPC's ``solver``, ``warm_start``, ``bands``; each left out takes
+    ghm's default (``ghm.defaults("rlmpc")``: a 1 h horizon, the shipped SAC guide)."""
 
-    def __init__(
-        self,
-        model,
-        horizon: str = "1h",
-        guide: str = "sac",
-        agent=None,
-        value=None,
-        variant: str = "rlmpc",
-        epsilon: float = 0.05,
-        terminal_cost: str = "exact",
-        solver: str = "ipm",
-        bands: str = "auto",
-    ):
-        super().__init__(
-            model,
-            {
-                "kind": "rlmpc",
-                "horizon": horizon,
-                "guide": guide,
-                "agent": None if agent is None else os.fspath(agent),
-                "value": None if value is None else os.fspath(value),
-                "variant": variant,
-                "epsilon": float(epsilon),
-                "terminal_cost": terminal_cost,
-                "solver": solver,
-                "bands": bands,
-            },
-        )
+    def __init__(self, model, horizon: Optional[str] = None, **settings):
+        super().__init__(model, _settings("rlmpc", {"horizon": horizon, **settings}))
 
 
 class Policy(Controller):
@@ -197,11 +184,11 @@ class Policy(Controller):
     agent shipped for the model."""
 
     def __init__(self, model, agent=None):
-        super().__init__(model, {"kind": "policy", "agent": None if agent is None else os.fspath(agent)})
+        super().__init__(model, _settings("policy", {"agent": agent}))
 
 
 class Expert(Controller):
     """The rule-based expert (``ghm policy --expert``)."""
 
     def __init__(self, model):
-        super().__init__(model, {"kind": "expert"})
+        super().__init__(model, _settings("expert", {}))
