@@ -194,6 +194,10 @@ fn bad_arguments_and_files_give_messages_not_panics() {
             "error: --steps 0: the season must have at least one step",
         ),
         (
+            &["simulate", "models/lettuce.ghm", "--rules"],
+            "error: the rules controller needs a `rule` on every input of model `lettuce`; these have none: co2_supply, ventilation, heating",
+        ),
+        (
             &["simulate", "models/lettuce.ghm", "--uncertainty", "2"],
             "error: --uncertainty 2: must be in [0, 1)",
         ),
@@ -493,4 +497,42 @@ fn value_and_rlmpc_run_end_to_end_with_the_expert_guide() {
     assert!(!ok && err.contains("no value network"), "{err}");
     let _ = std::fs::remove_dir_all(&value);
     let _ = std::fs::remove_dir_all(&run);
+}
+
+/// `ghm simulate --rules`: the model's own rules decide. The lamp clock's thermostat heats
+/// fully below 18.5 °C and not at all above, so a cold season's heating column follows
+/// the air temperature, within the input's rate limit.
+#[test]
+fn simulate_with_the_models_rules_follows_them() {
+    let dir = temp_dir("rules");
+    let out = dir.to_str().expect("utf-8");
+    let (ok, _, err) = ghm(&[
+        "simulate",
+        "models/lamp-clock.ghm",
+        "--rules",
+        "--days",
+        "1",
+        "--out",
+        out,
+    ]);
+    assert!(ok, "{err}");
+    let text = std::fs::read_to_string(dir.join("trajectory.csv")).expect("trajectory");
+    let mut rows = text.lines();
+    let header: Vec<&str> = rows.next().expect("header").split(',').collect();
+    let at = |name: &str| header.iter().position(|c| *c == name).expect(name);
+    let (temp, heating) = (at("x_temp_air"), at("u_heating"));
+    let mut previous = 50.0; // the input's `start`
+    for row in rows {
+        let v: Vec<f64> = row
+            .split(',')
+            .map(|f| f.parse().unwrap_or(f64::NAN))
+            .collect();
+        let rule = 150.0 * (0.5 + 0.5 * (2.0 * (18.5 - v[temp])).tanh());
+        let expected = rule
+            .clamp(previous - 30.0, previous + 30.0)
+            .clamp(0.0, 150.0);
+        assert!((v[heating] - expected).abs() < 1e-9, "{row}");
+        previous = v[heating];
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -672,3 +672,16 @@ state temp [°C] = 15
 der temp = -temp + time + hours
 "#
 );
+
+bad!(
+    rule_reads_an_input,
+    1,
+    r#"
+sample 30 [min]
+state temp [°C] = 15
+input heating [W] in [0, 100] rule 100 - 5 * temp
+input vent [-] in [0, 1]
+    rule min(1, heating / 100)
+der temp = (heating - 10 * vent * temp) / 3600
+"#
+);

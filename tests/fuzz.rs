@@ -93,6 +93,7 @@ const HOSTILE_TOKENS: &[&str] = &[
     "mod(",
     "floor(",
     "clock",
+    "rule",
     "\u{0}",
 ];
 

@@ -66,7 +66,7 @@ impl ControllerArgs {
                 *rlmpc = self.guidance.rlmpc(mpc);
             }
             ControllerSpec::Policy { agent } => agent.clone_from(&self.guidance.agent),
-            ControllerSpec::Expert => {}
+            ControllerSpec::Expert | ControllerSpec::Rules => {}
             ControllerSpec::Inputs(_) | ControllerSpec::Optimum(_) => {
                 return Err(CliError::Argument(format!(
                     "--controller {kind}: only a controller that decides from the state can be \

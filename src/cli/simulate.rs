@@ -14,8 +14,12 @@ pub struct SimulateArgs {
     pub weather: WeatherArgs,
     /// Inputs: `const:u1,u2,...` for the same input every step, or a CSV file with one row per
     /// step and one column per input (named as the model's inputs). Default: the start input.
-    #[arg(long, value_name = "const:U,.. | FILE.csv")]
+    #[arg(long, value_name = "const:U,.. | FILE.csv", conflicts_with = "rules")]
     pub inputs: Option<String>,
+    /// Let the model's own rules decide (each input's `rule`, as a model imported from
+    /// GreenLight has GreenLight's climate control), held over each step.
+    #[arg(long)]
+    pub rules: bool,
     /// Apply the inputs as given, without clipping to bounds and rate limits.
     #[arg(long)]
     pub no_rate_limit: bool,
@@ -34,10 +38,14 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
         model: args.file.clone(),
         weather: args.weather.spec(),
         plant: args.plant.spec(),
-        controller: ControllerSpec::Inputs(InputsSpec {
-            inputs: args.inputs.clone(),
-            enforce_limits: !args.no_rate_limit,
-        }),
+        controller: if args.rules {
+            ControllerSpec::Rules
+        } else {
+            ControllerSpec::Inputs(InputsSpec {
+                inputs: args.inputs.clone(),
+                enforce_limits: !args.no_rate_limit,
+            })
+        },
     };
     let options = JobOptions {
         overwrite: args.overwrite,

@@ -7,6 +7,7 @@ pub mod expert;
 pub mod mpc;
 pub mod policy;
 pub mod rlmpc;
+pub mod rules;
 pub mod stepper;
 pub mod value;
 
@@ -14,6 +15,7 @@ pub use expert::Expert;
 pub use mpc::{Guidance, Mpc};
 pub use policy::Policy;
 pub use rlmpc::{terminal_region, RlGuidance, RlMpcOptions, TerminalCostForm};
+pub use rules::Rules;
 pub use stepper::{LimitPolicy, StepDecision, StepError, StepRequest, Stepper};
 pub use value::{taylor_terminal_cost, ValueFile, ValueTerminalCost};
 

@@ -245,6 +245,7 @@ impl ControllerFiles {
             }
             ControllerSpec::Inputs(_)
             | ControllerSpec::Expert
+            | ControllerSpec::Rules
             | ControllerSpec::Mpc(_)
             | ControllerSpec::Optimum(_) => {}
         }

@@ -3,7 +3,9 @@
 //! settings) and `trajectory.png` are written and the folder is marked complete.
 
 use crate::control::TerminalCostForm;
-use crate::control::{Controller, Expert, InputTable, Mpc, Policy, RlGuidance, RlMpcOptions};
+use crate::control::{
+    Controller, Expert, InputTable, Mpc, Policy, RlGuidance, RlMpcOptions, Rules,
+};
 use crate::job::build::{
     bands_name, guide_factory, load_model, make_mpc, parse_horizon, parse_inputs, ControllerFiles,
 };
@@ -278,6 +280,9 @@ fn build(
         ControllerSpec::Expert => {
             built.controller = Box::new(Expert::new(plant.clone()).map_err(fail)?);
             built.extra = json!({ "agent": "expert" });
+        }
+        ControllerSpec::Rules => {
+            built.controller = Box::new(Rules::new(plant.clone()).map_err(fail)?);
         }
         ControllerSpec::Policy { agent } => {
             let file = files

@@ -78,6 +78,8 @@ pub enum ControllerSpec {
     Inputs(InputsSpec),
     /// The rule-based expert.
     Expert,
+    /// The model's own rules: each input set by its declaration's `rule`.
+    Rules,
     /// A trained deterministic policy: a `ghm train` folder or a policy file, or (none) the
     /// agent shipped for the model.
     Policy {
@@ -101,6 +103,8 @@ crate::choice! {
         Inputs = "inputs",
         /// The rule-based expert.
         Expert = "expert",
+        /// The model's own rules (each input's `rule`), as GreenLight's climate control.
+        Rules = "rules",
         /// A trained policy.
         Policy = "policy",
         /// Economic MPC.
@@ -119,6 +123,7 @@ impl ControllerKind {
     pub fn is_feedback(self) -> bool {
         match self {
             ControllerKind::Expert
+            | ControllerKind::Rules
             | ControllerKind::Policy
             | ControllerKind::Mpc
             | ControllerKind::Rlmpc => true,
@@ -132,6 +137,7 @@ impl ControllerKind {
             ControllerKind::Mpc | ControllerKind::Rlmpc => true,
             ControllerKind::Inputs
             | ControllerKind::Expert
+            | ControllerKind::Rules
             | ControllerKind::Policy
             | ControllerKind::Optimum => false,
         }
@@ -144,6 +150,7 @@ impl ControllerSpec {
         match kind {
             ControllerKind::Inputs => ControllerSpec::Inputs(InputsSpec::default()),
             ControllerKind::Expert => ControllerSpec::Expert,
+            ControllerKind::Rules => ControllerSpec::Rules,
             ControllerKind::Policy => ControllerSpec::Policy { agent: None },
             ControllerKind::Mpc => ControllerSpec::Mpc(MpcSpec::default()),
             ControllerKind::Rlmpc => ControllerSpec::Rlmpc(RlmpcSpec::default()),
@@ -156,6 +163,7 @@ impl ControllerSpec {
         match self {
             ControllerSpec::Inputs(_) => ControllerKind::Inputs,
             ControllerSpec::Expert => ControllerKind::Expert,
+            ControllerSpec::Rules => ControllerKind::Rules,
             ControllerSpec::Policy { .. } => ControllerKind::Policy,
             ControllerSpec::Mpc(_) => ControllerKind::Mpc,
             ControllerSpec::Rlmpc(_) => ControllerKind::Rlmpc,
@@ -170,6 +178,7 @@ impl ControllerSpec {
             ControllerSpec::Rlmpc(rlmpc) => Some(&rlmpc.mpc.horizon),
             ControllerSpec::Inputs(_)
             | ControllerSpec::Expert
+            | ControllerSpec::Rules
             | ControllerSpec::Policy { .. }
             | ControllerSpec::Optimum(_) => None,
         }

@@ -178,6 +178,9 @@ pub enum Stmt {
         rate: Option<Expr>,
         /// `start S`: the input before the first step; `None`: 0 clipped into the bounds.
         start: Option<Expr>,
+        /// `rule EXPR`: the rule a rule-based controller sets the input by, from the state,
+        /// the weather and the parameters; `None`: no rule.
+        rule: Option<Expr>,
         /// Unit and description.
         doc: Doc,
     },

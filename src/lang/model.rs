@@ -48,6 +48,9 @@ pub struct InputDecl {
     pub rate: Option<f64>,
     /// The input applied before the first step (`start S`, else 0 clipped into the bounds).
     pub start: f64,
+    /// `rule EXPR`: the input a rule-based controller applies, a node over `(x, d, p)` of
+    /// the model's graph (it reads no input); `None`: the input has no rule.
+    pub rule: Option<NodeId>,
 }
 
 /// A `disturbance`: read from a weather column or held constant.

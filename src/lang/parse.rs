@@ -183,6 +183,7 @@ fn describe_expected(rules: &[Rule]) -> String {
             }
             Rule::weights => "`weight`",
             Rule::bounds => "`in [lo, hi]`",
+            Rule::input_rule => "`rule EXPRESSION`",
             Rule::EOI => "the end of the statement",
             Rule::cmp_op | Rule::add_op | Rule::mul_op | Rule::kw_and | Rule::kw_or => {
                 "an operator"
@@ -350,6 +351,7 @@ impl Builder {
             Rule::input_stmt => {
                 let name = self.name(self.next(&mut it, span)?);
                 let (mut doc, mut bounds, mut rate, mut start) = (Doc::default(), None, None, None);
+                let mut rule = None;
                 for q in it {
                     match q.as_rule() {
                         Rule::unit => doc.unit = Some(Self::unit(q)),
@@ -363,6 +365,9 @@ impl Builder {
                         Rule::start => {
                             start = Some(self.expr(self.next(&mut q.children(), span)?)?)
                         }
+                        Rule::input_rule => {
+                            rule = Some(self.expr(self.next(&mut q.children(), span)?)?)
+                        }
                         Rule::description => doc.description = Some(Self::string(q)),
                         _ => {}
                     }
@@ -372,6 +377,7 @@ impl Builder {
                     bounds,
                     rate,
                     start,
+                    rule,
                     doc,
                 }
             }

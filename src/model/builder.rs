@@ -142,6 +142,7 @@ impl ModelBuilder {
             upper,
             rate,
             start,
+            rule: None,
         });
         self.slot(name, Slot::Input(self.inputs.len() - 1))
     }

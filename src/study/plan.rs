@@ -21,7 +21,7 @@
 //!
 //! [[controllers]]
 //! name = "MPC"
-//! kind = "mpc"                            # inputs, expert, policy, mpc, rlmpc
+//! kind = "mpc"                            # inputs, expert, rules, policy, mpc, rlmpc
 //!
 //! [agents]                                # train the agents and value networks (optional)
 //! episodes = 100
@@ -414,6 +414,7 @@ impl OwnAgents<'_> {
             ControllerSpec::Policy { .. }
             | ControllerSpec::Inputs(_)
             | ControllerSpec::Expert
+            | ControllerSpec::Rules
             | ControllerSpec::Mpc(_)
             | ControllerSpec::Optimum(_) => {}
         }

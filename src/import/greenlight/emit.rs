@@ -9,7 +9,7 @@
 //! | `aux` | `let` (the description as a comment) |
 //! | `input` | `disturbance x [unit] column "x" value default` (a default that is not constant, as van Henten's control rules: `let`) |
 //! | a variable whose name is a weather column (Katzin 2021: the const `hElevation`) | `disturbance` |
-//! | a control named in `inputs` | `input x [unit] in [0, 1]` (unbounded unless its unit is `-`) and `output x_rule = definition "GreenLight's rule for x"` |
+//! | a control named in `inputs` | `input x [unit] in [0, 1] "description"` (unbounded unless its unit is `-`) with `rule definition`, GreenLight's rule, on the next line |
 //! | `function` | `fn`, except GreenLight's `ifElse`, `min` and `max` (recognised by their bodies) |
 //! | `time` | nothing (a comment): GreenLight's time axis, no variable |
 //! | the readings a grower looks at (`READINGS`: air temperature, humidity, CO₂, heating and lamp power, fruit dry matter, harvest), where the model has their variables | `output air_temperature [°C] = tAir …` (added, so that a season's plot shows the climate and the crop) |
@@ -623,17 +623,6 @@ pub fn emit(model: &Resolved, opts: &EmitOptions) -> Result<Emitted, ImportError
             users.insert(v.name.clone(), (names[&v.name].clone(), v.params.len()));
         }
     }
-    let mut rule_names: HashMap<&str, String> = HashMap::new();
-    for name in &opts.inputs {
-        let mut candidate = format!("{name}_rule");
-        let mut k = 2;
-        while taken.contains(&candidate) {
-            candidate = format!("{name}_rule{k}");
-            k += 1;
-        }
-        taken.insert(candidate.clone());
-        rule_names.insert(name, candidate);
-    }
     let ctx = Ctx {
         names: &names,
         roles: &roles,
@@ -704,7 +693,7 @@ pub fn emit(model: &Resolved, opts: &EmitOptions) -> Result<Emitted, ImportError
     if !opts.inputs.is_empty() {
         let _ = writeln!(
             out,
-            "\n# Control inputs (open loop: set from outside): {}.\n# GreenLight's rule for each is kept as the output <name>_rule.",
+            "\n# Control inputs (open loop: set from outside): {}.\n# GreenLight's rule for each is its `rule` (`ghm simulate --rules` applies them).",
             opts.inputs.join(", ")
         );
     }
@@ -830,7 +819,6 @@ pub fn emit(model: &Resolved, opts: &EmitOptions) -> Result<Emitted, ImportError
                 }
                 Role::Input => {
                     counts.inputs += 1;
-                    counts.outputs += 1;
                     // A GreenLight control with unit `-` is a fraction 0–1 (all of Katzin
                     // 2021's); for any other unit GreenLight states no range.
                     if unit(v) == Ok(Some("-".to_string())) {
@@ -841,13 +829,7 @@ pub fn emit(model: &Resolved, opts: &EmitOptions) -> Result<Emitted, ImportError
                         );
                         let _ = writeln!(out, "input {name}{unit_text}{desc}");
                     }
-                    let _ = writeln!(
-                        out,
-                        "output {}{unit_text} = {} {}",
-                        rule_names[v.name.as_str()],
-                        tr(v, def, &none, "definition")?,
-                        quote(&format!("GreenLight's rule for {}", v.name))
-                    );
+                    let _ = writeln!(out, "    rule {}", tr(v, def, &none, "definition")?);
                 }
                 Role::Disturbance => {
                     counts.disturbances += 1;

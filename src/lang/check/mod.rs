@@ -230,7 +230,7 @@ impl<'d> Checker<'d> {
                 _ => None,
             })
             .collect();
-        let inputs: Vec<InputDecl> = inputs.iter().filter_map(|s| self.input(s)).collect();
+        let mut inputs: Vec<InputDecl> = inputs.iter().filter_map(|s| self.input(s)).collect();
         let dists: Vec<DisturbanceDecl> = dists
             .iter()
             .filter_map(|s| match &s.stmt {
@@ -326,6 +326,7 @@ impl<'d> Checker<'d> {
             }
         }
         let soft: Vec<SoftBand> = soft_stmts.iter().filter_map(|s| self.soft(s)).collect();
+        self.rules(d, &mut inputs);
         // Lets never used still get lowered, so their errors are reported.
         for i in 0..self.lets.len() {
             if let Derived::Pending(_) = self.lets[i].1 {

@@ -29,6 +29,7 @@ impl Checker<'_> {
             rate,
             start,
             doc,
+            ..
         } = &s.stmt
         else {
             return None;
@@ -89,7 +90,58 @@ impl Checker<'_> {
             upper,
             rate: rate_v,
             start: if start_v.is_finite() { start_v } else { 0.0 },
+            // Lowered with the dynamics ([`Checker::rules`]).
+            rule: None,
         })
+    }
+
+    /// Lowers each input's `rule` into the graph, once the lets it reads can be; a rule
+    /// that reads an input (directly or through a let) is refused, naming the input: a
+    /// rule decides the inputs, so it cannot read them.
+    pub(super) fn rules(&mut self, d: &crate::lang::collect::Decls, inputs: &mut [InputDecl]) {
+        let mut index = 0;
+        for s in &d.items {
+            let Stmt::Input { name, rule, .. } = &s.stmt else {
+                continue;
+            };
+            let i = index;
+            index += 1;
+            let Some(expr) = rule.as_ref() else {
+                continue;
+            };
+            let node = self.lower(expr, super::Context::Dynamics);
+            let read =
+                self.graph
+                    .reachable(&[node])
+                    .into_iter()
+                    .find_map(|n| match self.graph.node(n) {
+                        crate::graph::Node::Var(v) => {
+                            let v = v as usize;
+                            (v >= self.layout.nx && v < self.layout.nx + self.layout.nu)
+                                .then(|| v - self.layout.nx)
+                        }
+                        _ => None,
+                    });
+            if let Some(u) = read {
+                let read_name = inputs.get(u).map_or("an input", |d| d.info.name.as_str());
+                self.diags.push(
+                    Diagnostic::error(
+                        "E028",
+                        expr.span(),
+                        format!(
+                            "the rule of input `{}` reads the input `{read_name}`",
+                            name.text
+                        ),
+                    )
+                    .label("reads an input")
+                    .help("a rule decides the inputs from the state, the weather and the parameters; write it, and the lets it uses, without inputs"),
+                );
+                continue;
+            }
+            if let Some(input) = inputs.get_mut(i) {
+                input.rule = Some(node);
+            }
+        }
     }
 
     pub(super) fn soft(&mut self, s: &Statement) -> Option<SoftBand> {
