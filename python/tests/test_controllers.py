@@ -15,6 +15,7 @@ import ghm
 
 ROOT = Path(__file__).resolve().parents[2]
 LETTUCE = ROOT / "models" / "lettuce.ghm"
+LAMP_CLOCK = ROOT / "models" / "lamp-clock.ghm"
 GHM_BIN = Path(os.environ.get("GHM_BIN", ROOT / "target" / "debug" / "ghm"))
 
 
@@ -67,6 +68,7 @@ def test_rlmpc_policy_and_fixed_inputs_match_their_commands(tmp_path):
          ["rlmpc", LETTUCE, "--horizon", "1h", "--steps", "12", "--uncertainty", "0.05", "--seed", "3"]),
         (ghm.Policy(LETTUCE).season(steps=20), ["policy", LETTUCE, "--steps", "20"]),
         (ghm.Expert(LETTUCE).season(steps=20), ["policy", LETTUCE, "--expert", "--steps", "20"]),
+        (ghm.Rules(LAMP_CLOCK).season(steps=40), ["simulate", LAMP_CLOCK, "--rules", "--steps", "40"]),
         (ghm.simulate(LETTUCE, "const:0.6,1,40", enforce_limits=False, steps=20),
          ["simulate", LETTUCE, "--inputs", "const:0.6,1,40", "--no-rate-limit", "--steps", "20"]),
     ]

@@ -11,7 +11,9 @@
 use crate::cli::args::WeatherArgs;
 use crate::cli::CliError;
 use crate::job::output::model_hash;
-use crate::job::train::{prepare, rl, run_train_job, train, Season, TrainSpec};
+use crate::job::train::{
+    prepare, rl, run_train_job, train, Season, TrainSpec, DEFAULT_STOCHASTIC_UNCERTAINTY,
+};
 use crate::job::{load_model, JobOptions, RunFolder};
 use crate::model::Plant;
 use crate::rl::sac::{SacConfig, Trainer};
@@ -41,7 +43,7 @@ pub struct TrainArgs {
     #[arg(long, value_name = "S")]
     pub seed: Option<u64>,
     /// Write a checkpoint every N episodes (and at the end).
-    #[arg(long, value_name = "N", default_value_t = 5)]
+    #[arg(long, value_name = "N", default_value_t = TrainSpec::default().checkpoint_every)]
     pub checkpoint_every: usize,
     /// Run folder.
     #[arg(long, value_name = "DIR", default_value = "runs/train")]
@@ -65,8 +67,8 @@ impl TrainArgs {
             stochastic: season.stochastic,
             uncertainty: season.uncertainty,
             seed: season.seed,
-            episodes: self.episodes.unwrap_or(100),
-            warmup: self.warmup.unwrap_or(9),
+            episodes: self.episodes.unwrap_or(TrainSpec::default().episodes),
+            warmup: self.warmup.unwrap_or(TrainSpec::default().warmup),
             checkpoint_every: self.checkpoint_every,
         }
     }
@@ -77,10 +79,10 @@ impl TrainArgs {
             weather_args: self.weather.spec(),
             stochastic: self.stochastic,
             uncertainty: match self.stochastic {
-                true => self.uncertainty.unwrap_or(0.05),
+                true => self.uncertainty.unwrap_or(DEFAULT_STOCHASTIC_UNCERTAINTY),
                 false => 0.0,
             },
-            seed: self.seed.unwrap_or(4),
+            seed: self.seed.unwrap_or(TrainSpec::default().seed),
         }
     }
 }

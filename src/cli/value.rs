@@ -14,7 +14,7 @@ pub struct ValueArgs {
     /// The model file (.ghm).
     pub file: PathBuf,
     /// The guide whose returns are learned.
-    #[arg(long, value_parser = choice::<GuideChoice>(), default_value_t = GuideChoice::default())]
+    #[arg(long, value_parser = choice::<GuideChoice>(), default_value_t = ValueSpec::default().guide)]
     pub guide: GuideChoice,
     /// The SAC agent (a `ghm train` folder or policy file); default: the one shipped for
     /// the model under models/agents/.
@@ -23,19 +23,19 @@ pub struct ValueArgs {
     #[command(flatten)]
     pub weather: WeatherArgs,
     /// Roll-outs from perturbed states.
-    #[arg(long, value_name = "N", default_value_t = 1000)]
+    #[arg(long, value_name = "N", default_value_t = ValueSpec::default().trajectories)]
     pub trajectories: usize,
     /// Relative spread σ of the start states around the guide's season.
-    #[arg(long, value_name = "SIGMA", default_value_t = 0.5)]
+    #[arg(long, value_name = "SIGMA", default_value_t = ValueSpec::default().spread)]
     pub spread: f64,
     /// The state the value function reads (default: the model's first state).
     #[arg(long, value_name = "NAME")]
     pub state: Option<String>,
     /// Training epochs of the value network.
-    #[arg(long, value_name = "N", default_value_t = 200)]
+    #[arg(long, value_name = "N", default_value_t = ValueSpec::default().epochs)]
     pub epochs: usize,
     /// Seed of the roll-outs and of the fit.
-    #[arg(long, value_name = "S", default_value_t = 4)]
+    #[arg(long, value_name = "S", default_value_t = ValueSpec::default().seed)]
     pub seed: u64,
     /// Run folder.
     #[arg(long, value_name = "DIR", default_value = "runs/value")]

@@ -52,6 +52,27 @@ pub struct TrainSpec {
 /// The most episodes of one training (a 40-day lettuce episode is 1 920 steps).
 pub const MAX_EPISODES: usize = 100_000;
 
+/// The parametric uncertainty δ a stochastic training draws from where none is given.
+pub const DEFAULT_STOCHASTIC_UNCERTAINTY: f64 = 0.05;
+
+impl Default for TrainSpec {
+    /// `ghm train`'s defaults (a study's `[agents]` too): 100 episodes, the first 9 of
+    /// random actions, seed 4, a checkpoint every 5 episodes, on the nominal plant of the
+    /// built-in season; `model` is to be set.
+    fn default() -> Self {
+        TrainSpec {
+            model: PathBuf::new(),
+            weather: WeatherSpec::default(),
+            stochastic: false,
+            uncertainty: 0.0,
+            seed: 4,
+            episodes: 100,
+            warmup: 9,
+            checkpoint_every: 5,
+        }
+    }
+}
+
 impl TrainSpec {
     /// The season the training runs on, as `summary.json` records it.
     pub fn season(&self) -> Season {

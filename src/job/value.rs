@@ -47,6 +47,25 @@ pub struct ValueSpec {
     pub seed: u64,
 }
 
+impl Default for ValueSpec {
+    /// `ghm value`'s defaults (a study's `[agents]` too): the SAC guide shipped for the
+    /// model, 1 000 roll-outs spread by σ = 0.5, 200 epochs, seed 4, the model's first
+    /// state; `model` is to be set.
+    fn default() -> Self {
+        ValueSpec {
+            model: PathBuf::new(),
+            weather: WeatherSpec::default(),
+            guide: GuideChoice::default(),
+            agent: None,
+            trajectories: 1000,
+            spread: 0.5,
+            state: None,
+            epochs: 200,
+            seed: 4,
+        }
+    }
+}
+
 /// The most guide roll-outs one fit may sample.
 const MAX_TRAJECTORIES: usize = 10_000_000;
 /// The most training epochs of one fit.

@@ -74,16 +74,19 @@ struct Agents {
 }
 
 impl Default for Agents {
+    /// `ghm train`'s and `ghm value`'s defaults; the stochastic scenarios' agents trained
+    /// on their perturbed plant.
     fn default() -> Self {
+        let (train, value) = (TrainSpec::default(), ValueSpec::default());
         Agents {
-            episodes: 100,
-            warmup: 9,
-            seed: 4,
-            checkpoint_every: 5,
+            episodes: train.episodes,
+            warmup: train.warmup,
+            seed: train.seed,
+            checkpoint_every: train.checkpoint_every,
             stochastic: true,
-            trajectories: 1000,
-            spread: 0.5,
-            epochs: 200,
+            trajectories: value.trajectories,
+            spread: value.spread,
+            epochs: value.epochs,
         }
     }
 }

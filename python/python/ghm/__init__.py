@@ -34,7 +34,7 @@ from gymnasium import spaces
 
 from . import _ghm
 from ._ghm import DivergedError, ModelError, load
-from .control import Controller, Expert, Mpc, Policy, RlMpc, Season, defaults, optimum, simulate
+from .control import Controller, Expert, Mpc, Policy, RlMpc, Rules, Season, defaults, optimum, simulate
 from .policy import from_sb3, policy_action, read_policy, write_policy
 
 __all__ = [
@@ -49,6 +49,7 @@ __all__ = [
     "RlMpc",
     "Policy",
     "Expert",
+    "Rules",
     "simulate",
     "optimum",
     "defaults",

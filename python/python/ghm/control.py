@@ -28,7 +28,7 @@ import numpy as np
 
 from . import _ghm
 
-__all__ = ["Season", "Controller", "Mpc", "RlMpc", "Policy", "Expert", "simulate", "optimum", "defaults"]
+__all__ = ["Season", "Controller", "Mpc", "RlMpc", "Policy", "Expert", "Rules", "simulate", "optimum", "defaults"]
 
 
 class Season:
@@ -185,6 +185,15 @@ class Policy(Controller):
 
     def __init__(self, model, agent=None):
         super().__init__(model, _settings("policy", {"agent": agent}))
+
+
+class Rules(Controller):
+    """The model's own rules (``ghm simulate --rules``): each input set by its ``rule``
+    at the step's state and weather, as a model imported from GreenLight carries
+    GreenLight's climate control."""
+
+    def __init__(self, model):
+        super().__init__(model, _settings("rules", {}))
 
 
 class Expert(Controller):
