@@ -14,6 +14,7 @@ mod common;
 use ghm::model::Plant;
 use ghm::sim::weather::load_csv;
 use std::collections::BTreeMap;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// The acceptance tolerances of issue 34: `(absolute, relative)` by the kind of state.
@@ -85,7 +86,8 @@ fn read_table(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
 #[test]
 fn open_loop_matches_greenlight_point_by_point() {
     let (Some(models), Some(reference)) = (greenlight_models(), reference()) else {
-        eprintln!(
+        let _ = writeln!(
+            std::io::stderr(),
             "skipped: needs GreenLight's model files (pip install greenlight==2.0.5; \
              GHM_GREENLIGHT_MODELS) and its reference output (GHM_GREENLIGHT_REFERENCE, made by \
              tests/greenlight/make_reference.py); .ci/run provides both"
@@ -311,7 +313,8 @@ fn means_off(
 #[test]
 fn closed_loop_with_greenlights_rules_matches_its_means() {
     let (Some(models), Some(reference)) = (greenlight_models(), reference()) else {
-        eprintln!(
+        let _ = writeln!(
+            std::io::stderr(),
             "skipped: needs GreenLight's model files and its reference output \
              (GHM_GREENLIGHT_MODELS, GHM_GREENLIGHT_REFERENCE); .ci/run provides both"
         );
@@ -368,7 +371,8 @@ fn closed_loop_with_greenlights_rules_matches_its_means() {
 #[test]
 fn the_rules_controller_holds_greenlights_rules_over_each_step() {
     let (Some(models), Some(reference)) = (greenlight_models(), reference()) else {
-        eprintln!(
+        let _ = writeln!(
+            std::io::stderr(),
             "skipped: needs GreenLight's model files and its reference output \
              (GHM_GREENLIGHT_MODELS, GHM_GREENLIGHT_REFERENCE); .ci/run provides both"
         );
@@ -411,7 +415,8 @@ fn the_rules_controller_holds_greenlights_rules_over_each_step() {
 #[test]
 fn the_rl_environment_runs_the_imported_model() {
     let (Some(models), Some(_)) = (greenlight_models(), reference()) else {
-        eprintln!(
+        let _ = writeln!(
+            std::io::stderr(),
             "skipped: needs GreenLight's model files and its reference output \
              (GHM_GREENLIGHT_MODELS, GHM_GREENLIGHT_REFERENCE); .ci/run provides both"
         );

@@ -1,15 +1,14 @@
 //! Exact derivatives of the lettuce step against an independent symbolic tool (CasADi SX,
-//! `../shared/spec/derivative-check.json`): tighter than finite differences can be.
-//! Reads `../shared`.
+//! `spec/derivative-check.json` of the shared data folder, `common::shared`): tighter
+//! than finite differences can be.
+
+mod common;
 
 use ghm::graph::Derivatives;
 use ghm::model::Plant;
 use serde_json::Value;
 
-const SPEC: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../shared/spec/derivative-check.json"
-);
+const SPEC: &str = "spec/derivative-check.json";
 
 fn vector(v: &Value) -> Vec<f64> {
     v.as_array()
@@ -34,7 +33,11 @@ fn max_rel(got: &[f64], want: &[f64]) -> f64 {
 
 #[test]
 fn shared_step_derivatives_match_symbolic_reference() {
-    let text = std::fs::read_to_string(SPEC).expect("../shared/spec/derivative-check.json");
+    let Some(path) = common::shared(SPEC, "shared_step_derivatives_match_symbolic_reference")
+    else {
+        return;
+    };
+    let text = std::fs::read_to_string(path).expect("spec/derivative-check.json");
     let spec: Value = serde_json::from_str(&text).expect("valid JSON");
     let model = ghm::lang::load(std::path::Path::new("models/lettuce-thesis.ghm"))
         .unwrap_or_else(|e| panic!("{}", e.render()));

@@ -10,6 +10,12 @@ use ghm::solve::{kkt_residuals, Ipopt, IpoptOptions, Solver, Sqp, SqpOptions, St
 
 #[test]
 fn shared_sqp_and_ipopt_reach_the_same_objective_at_ten_steps() {
+    let Some(_) = common::shared(
+        common::VENLO,
+        "shared_sqp_and_ipopt_reach_the_same_objective_at_ten_steps",
+    ) else {
+        return;
+    };
     let plant = plant("models/lettuce-thesis.ghm");
     let weather = venlo(&plant, 1920 + 12);
     let states = states_along_season(&plant, &weather, &STEPS);
@@ -58,6 +64,12 @@ fn shared_sqp_and_ipopt_reach_the_same_objective_at_ten_steps() {
 
 #[test]
 fn shared_two_day_closed_loop_with_ipopt_matches_the_peer_reward() {
+    let Some(_) = common::shared(
+        common::VENLO,
+        "shared_two_day_closed_loop_with_ipopt_matches_the_peer_reward",
+    ) else {
+        return;
+    };
     let plant = plant("models/lettuce-thesis.ghm");
     for (hours, reference) in [(1usize, -0.074630), (6, -0.069817)] {
         let m = closed_loop(

@@ -9,6 +9,12 @@ use ghm::solve::{kkt_residuals, Ipm, Solver, Sqp, Start};
 
 #[test]
 fn shared_sqp_solutions_satisfy_kkt_at_ten_steps_of_the_season() {
+    let Some(_) = common::shared(
+        common::VENLO,
+        "shared_sqp_solutions_satisfy_kkt_at_ten_steps_of_the_season",
+    ) else {
+        return;
+    };
     // Cold starts (the previous input held) from open-loop states.
     for file in ["models/lettuce-thesis.ghm", "models/lettuce.ghm"] {
         let plant = plant(file);
@@ -59,6 +65,12 @@ fn shared_sqp_solutions_satisfy_kkt_at_ten_steps_of_the_season() {
 /// at 1 h and −0.069817 at 6 h (thesis variant).
 #[test]
 fn shared_two_day_closed_loop_matches_the_peer_reward() {
+    let Some(_) = common::shared(
+        common::VENLO,
+        "shared_two_day_closed_loop_matches_the_peer_reward",
+    ) else {
+        return;
+    };
     let plant = plant("models/lettuce-thesis.ghm");
     for (hours, reference) in [(1usize, -0.074630), (6, -0.069817)] {
         let m = &closed_loop(&plant, 2 * hours, Box::new(Sqp::default()), 96);
@@ -84,6 +96,12 @@ fn shared_two_day_closed_loop_matches_the_peer_reward() {
 /// the scoring bands' reward, as the back-off costs yield.
 #[test]
 fn shared_paper_variant_closed_loop_matches_the_peer_reward() {
+    let Some(_) = common::shared(
+        common::VENLO,
+        "shared_paper_variant_closed_loop_matches_the_peer_reward",
+    ) else {
+        return;
+    };
     let plant = plant("models/lettuce.ghm");
     for (bands, reference) in [(Bands::Scoring, -0.0801684), (Bands::Planning, -0.0838453)] {
         let m = closed_loop_with_bands(&plant, 6, Box::new(Sqp::default()), 96, bands);

@@ -1,15 +1,12 @@
 //! Open-loop and replay checks of the lettuce plant against the reference figures.
-//! These tests read `../shared` (the Venlo weather and the spec's figures).
+//! These tests read the Venlo weather in the shared data folder (`common::shared`).
 
+mod common;
+
+use common::START_ROW;
 use ghm::model::Plant;
 use ghm::sim::weather::load_csv;
 use std::path::Path;
-
-const VENLO: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../shared/data/venlo2014_30min_model_units.csv"
-);
-const START_ROW: usize = 1394;
 
 fn plant(file: &str) -> Plant {
     let model = ghm::lang::load(Path::new(file)).unwrap_or_else(|e| panic!("{}", e.render()));
@@ -18,9 +15,9 @@ fn plant(file: &str) -> Plant {
 
 fn venlo(plant: &Plant, steps: usize) -> ghm::sim::weather::Weather {
     let columns = plant.model.weather_columns();
-    load_csv(Path::new(VENLO), &columns, 1800.0)
+    load_csv(&common::shared_dir().join(common::VENLO), &columns, 1800.0)
         .and_then(|f| f.select(&columns, START_ROW, steps))
-        .expect("Venlo weather (../shared) must be readable")
+        .expect("Venlo weather (the shared folder) must be readable")
 }
 
 fn rel(a: f64, b: f64) -> f64 {
@@ -30,6 +27,12 @@ fn rel(a: f64, b: f64) -> f64 {
 /// spec/openloop-check.md: constant input (0.6, 1, 40), no rate limit, 1920 steps.
 #[test]
 fn shared_openloop_check_matches_reference_to_1e9() {
+    let Some(_) = common::shared(
+        common::VENLO,
+        "shared_openloop_check_matches_reference_to_1e9",
+    ) else {
+        return;
+    };
     let plant = plant("models/lettuce-thesis.ghm");
     let weather = venlo(&plant, 1920);
     let p = plant.model.nominal_params();
@@ -132,6 +135,9 @@ fn shared_openloop_check_matches_reference_to_1e9() {
 /// reference-numbers.md §5: the first three steps of the published 1-hour MPC run.
 #[test]
 fn shared_replay_of_published_run() {
+    let Some(_) = common::shared(common::VENLO, "shared_replay_of_published_run") else {
+        return;
+    };
     let plant = plant("models/lettuce-thesis.ghm");
     let weather = venlo(&plant, 3);
     let p = plant.model.nominal_params();

@@ -32,6 +32,12 @@ const RECORDED: [(&str, f64); 2] = [
 
 #[test]
 fn shared_first_week_of_rl_guided_mpc_solves_every_step_to_its_recorded_reward() {
+    let Some(_) = common::shared(
+        common::VENLO,
+        "shared_first_week_of_rl_guided_mpc_solves_every_step_to_its_recorded_reward",
+    ) else {
+        return;
+    };
     const STEPS: usize = 336;
     let horizon = 2;
     for (variant, recorded) in RECORDED {

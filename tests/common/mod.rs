@@ -1,4 +1,9 @@
-//! Helpers shared by the MPC tests that read the Venlo season in ../shared.
+//! Helpers shared by the MPC tests, and the project's shared data folder that some of
+//! them read: the Venlo 2014 weather and the spec's reference figures, which the
+//! repository does not ship (the weather's sources state no licence). The folder is
+//! `GHM_SHARED`, else `../shared` beside the repository; a test that needs it and does
+//! not find it says on stderr that it skipped and why, unless `GHM_REQUIRE_SHARED` is set
+//! (`.ci/run`, which provides the data, so that CI runs every test).
 #![allow(dead_code)]
 
 pub mod bin;
@@ -10,13 +15,41 @@ use ghm::sim::metrics::Metrics;
 use ghm::sim::season::{run_season, SeasonConfig, StepLog};
 use ghm::sim::weather::{load_csv, Weather};
 use ghm::solve::Solver;
-use std::path::Path;
+use std::io::Write;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-pub const VENLO: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../shared/data/venlo2014_30min_model_units.csv"
-);
+/// The Venlo 2014 weather in the shared folder.
+pub const VENLO: &str = "data/venlo2014_30min_model_units.csv";
+
+/// The shared data folder: `GHM_SHARED`, else `../shared` beside the repository.
+pub fn shared_dir() -> PathBuf {
+    match std::env::var_os("GHM_SHARED") {
+        Some(dir) => PathBuf::from(dir),
+        None => Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared"),
+    }
+}
+
+/// `relative` in the shared folder, where it is there. Where it is not, `test` is skipped
+/// with a message that says how to provide it, or fails when `GHM_REQUIRE_SHARED` is set.
+pub fn shared(relative: &str, test: &str) -> Option<PathBuf> {
+    let path = shared_dir().join(relative);
+    if path.is_file() {
+        return Some(path);
+    }
+    let message = format!(
+        "{test}: needs {} from the project's shared data folder (../shared beside the \
+         repository, or set GHM_SHARED to the folder that holds {relative})",
+        path.display()
+    );
+    assert!(
+        std::env::var_os("GHM_REQUIRE_SHARED").is_none(),
+        "{message}; GHM_REQUIRE_SHARED is set"
+    );
+    // Past the test harness' capture, so that a passing run still says what it skipped.
+    let _ = writeln!(std::io::stderr(), "skipped: {message}");
+    None
+}
 pub const START_ROW: usize = 1394;
 
 pub fn plant(file: &str) -> Arc<Plant> {
@@ -26,9 +59,9 @@ pub fn plant(file: &str) -> Arc<Plant> {
 
 pub fn venlo(plant: &Plant, steps: usize) -> Weather {
     let columns = plant.model.weather_columns();
-    load_csv(Path::new(VENLO), &columns, 1800.0)
+    load_csv(&shared_dir().join(VENLO), &columns, 1800.0)
         .and_then(|f| f.select(&columns, START_ROW, steps))
-        .expect("Venlo weather (../shared) must be readable")
+        .expect("Venlo weather (the shared folder; see `shared`) must be readable")
 }
 
 /// States along an open-loop run with a mild constant input, so that the problems below
