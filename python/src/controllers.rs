@@ -4,18 +4,16 @@
 //! settings), or its controller is driven step by step ([`RawController`]).
 
 use crate::ModelError;
-use ghm::control::{Controller, LimitPolicy, StepRequest, Stepper};
+use ghm::control::{LimitPolicy, StepRequest, SteppedController, Stepper};
 use ghm::job::output::{numeric_fields, text_fields, trajectory_header, TEXT_COLUMNS};
 use ghm::job::{
     build_controller, run_season_logs, Choice, ControllerKind, ControllerSpec, JobError, RunSpec,
     SeasonLogs, StandaloneController,
 };
-use ghm::model::{Plant, StepWorkspace};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use std::sync::Arc;
 
 /// A job error as the Python exception that says what it is.
 fn job_error(e: JobError) -> PyErr {
@@ -91,11 +89,10 @@ pub fn season<'py>(py: Python<'py>, spec: &str) -> PyResult<SeasonArrays<'py>> {
 #[pyclass(module = "ghm._ghm", unsendable)]
 pub struct RawController {
     spec: RunSpec,
-    plant: Arc<Plant>,
-    controller: Box<dyn Controller>,
+    /// The controller with its plant and Python's stepper (the input clipped to its limits;
+    /// a short forecast is the controller's to pad, as MPC repeats its last row).
+    held: SteppedController,
     forecast_rows: usize,
-    params: Vec<f64>,
-    workspace: StepWorkspace,
 }
 
 #[pymethods]
@@ -108,21 +105,17 @@ impl RawController {
             controller,
             forecast_rows,
         } = build_controller(&spec).map_err(job_error)?;
-        let params = plant.model.nominal_params();
-        let workspace = plant.workspace();
         Ok(RawController {
             spec,
-            plant,
-            controller,
+            held: SteppedController::new(plant, controller, Stepper::new(LimitPolicy::Clip)),
             forecast_rows,
-            params,
-            workspace,
         })
     }
 
     /// Forgets the past (warm starts, plans): as built.
     fn reset(&mut self) -> PyResult<()> {
-        self.controller = build_controller(&self.spec).map_err(job_error)?.controller;
+        let fresh = build_controller(&self.spec).map_err(job_error)?.controller;
+        self.held.replace_controller(fresh);
         Ok(())
     }
 
@@ -133,7 +126,7 @@ impl RawController {
 
     /// The controller's name in reports.
     fn name(&self) -> String {
-        self.controller.name()
+        self.held.controller().name()
     }
 
     /// The input for step `step` at `state`, after `previous_input`, with the weather rows
@@ -146,7 +139,7 @@ impl RawController {
         previous_input: PyReadonlyArray1<'py, f64>,
         forecast: PyReadonlyArray2<'py, f64>,
     ) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyDict>)> {
-        let nd = self.plant.layout.nd;
+        let nd = self.held.plant().layout.nd;
         let forecast_view = forecast.as_array();
         let (rows, columns) = forecast_view.dim();
         if columns != nd {
@@ -169,21 +162,13 @@ impl RawController {
         };
         // The controller is not `Send` (its solver is a trait object), so the interpreter is
         // held while it decides.
-        let decision = Stepper::new(LimitPolicy::Clip)
-            .decide(
-                &self.plant,
-                &self.params,
-                &mut self.workspace,
-                self.controller.as_mut(),
-                &request,
-            )
-            .map_err(|e| {
-                if e.is_bad_request() {
-                    PyValueError::new_err(e.to_string())
-                } else {
-                    PyRuntimeError::new_err(e.to_string())
-                }
-            })?;
+        let decision = self.held.decide(&request).map_err(|e| {
+            if e.is_bad_request() {
+                PyValueError::new_err(e.to_string())
+            } else {
+                PyRuntimeError::new_err(e.to_string())
+            }
+        })?;
         let record = PyDict::new(py);
         let r = &decision.record;
         record.set_item("solve_ms", r.solve_time_s * 1e3)?;

@@ -16,7 +16,7 @@ pub use mpc::{Guidance, Mpc};
 pub use policy::Policy;
 pub use rlmpc::{terminal_region, RlGuidance, RlMpcOptions, TerminalCostForm};
 pub use rules::Rules;
-pub use stepper::{LimitPolicy, StepDecision, StepError, StepRequest, Stepper};
+pub use stepper::{LimitPolicy, StepDecision, StepError, StepRequest, SteppedController, Stepper};
 pub use value::{taylor_terminal_cost, ValueFile, ValueTerminalCost};
 
 use crate::solve::SolveStatus;

@@ -371,3 +371,83 @@ fn model_finite(
         }),
     }
 }
+
+/// A controller held with what deciding from outside a season needs beside it: the plant
+/// it predicts with, that plant's nominal parameters, a step workspace and the door's
+/// [`Stepper`]. `ghm serve`'s sessions, the C ABI's controller and Python's each hold one,
+/// so they differ only in the stepper they choose.
+pub struct SteppedController {
+    plant: std::sync::Arc<Plant>,
+    controller: Box<dyn Controller>,
+    stepper: Stepper,
+    params: Vec<f64>,
+    workspace: StepWorkspace,
+}
+
+impl SteppedController {
+    /// `controller` of `plant`, deciding through `stepper`.
+    pub fn new(
+        plant: std::sync::Arc<Plant>,
+        controller: Box<dyn Controller>,
+        stepper: Stepper,
+    ) -> SteppedController {
+        SteppedController {
+            params: plant.model.nominal_params(),
+            workspace: plant.workspace(),
+            plant,
+            controller,
+            stepper,
+        }
+    }
+
+    /// Decides the step `request` describes ([`Stepper::decide`]).
+    pub fn decide(&mut self, request: &StepRequest) -> Result<StepDecision, StepError> {
+        self.stepper.decide(
+            &self.plant,
+            &self.params,
+            &mut self.workspace,
+            self.controller.as_mut(),
+            request,
+        )
+    }
+
+    /// The plant the controller predicts with.
+    pub fn plant(&self) -> &std::sync::Arc<Plant> {
+        &self.plant
+    }
+
+    /// The plant's nominal parameters.
+    pub fn params(&self) -> &[f64] {
+        &self.params
+    }
+
+    /// The controller.
+    pub fn controller(&self) -> &dyn Controller {
+        self.controller.as_ref()
+    }
+
+    /// Puts `controller` in place of the one held (a reset: warm starts and plans
+    /// forgotten).
+    pub fn replace_controller(&mut self, controller: Box<dyn Controller>) {
+        self.controller = controller;
+    }
+
+    /// One step of the nominal plant from `state` under `input` and the disturbance row
+    /// `weather`, into `out` (a door that also simulates: the C ABI's `ghm_plant_step`).
+    pub fn step_plant(
+        &mut self,
+        state: &[f64],
+        input: &[f64],
+        weather: &[f64],
+        out: &mut crate::model::StepOutcome,
+    ) {
+        self.plant.step_into(
+            &mut self.workspace,
+            state,
+            input,
+            weather,
+            &self.params,
+            out,
+        );
+    }
+}

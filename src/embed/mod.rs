@@ -15,9 +15,11 @@ pub mod package;
 
 pub use ffi::GhmSizes;
 
-use crate::control::{Controller, LimitPolicy, StepRecord, StepRequest, Stepper};
+use crate::control::{
+    Controller, LimitPolicy, StepRecord, StepRequest, SteppedController, Stepper,
+};
 use crate::job::{build_controller_with, ControllerFiles, JobError, RunSpec};
-use crate::model::{Plant, StepOutcome, StepWorkspace};
+use crate::model::{Plant, StepOutcome};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -154,12 +156,8 @@ impl Bundle {
 /// A controller driven call by call from outside a season (a C program): it computes the
 /// outputs the season loop would, decides, and limits the input as the season loop does.
 pub struct EmbeddedController {
-    plant: Arc<Plant>,
-    controller: Box<dyn Controller>,
+    held: SteppedController,
     forecast_rows: usize,
-    stepper: Stepper,
-    params: Vec<f64>,
-    workspace: StepWorkspace,
     last: Option<StepRecord>,
 }
 
@@ -169,32 +167,30 @@ impl EmbeddedController {
         controller: Box<dyn Controller>,
         forecast_rows: usize,
     ) -> EmbeddedController {
+        let stepper = Stepper::new(LimitPolicy::Clip).with_forecast_rows(forecast_rows);
         EmbeddedController {
-            params: plant.model.nominal_params(),
-            workspace: plant.workspace(),
-            controller,
+            held: SteppedController::new(plant, controller, stepper),
             forecast_rows: forecast_rows.max(1),
-            stepper: Stepper::new(LimitPolicy::Clip).with_forecast_rows(forecast_rows),
-            plant,
             last: None,
         }
     }
 
     /// The plant the controller predicts with.
     pub fn plant(&self) -> &Plant {
-        &self.plant
+        self.held.plant()
     }
 
     /// The sizes of its arguments.
     pub fn sizes(&self) -> GhmSizes {
-        let l = self.plant.layout;
+        let plant = self.held.plant();
+        let l = plant.layout;
         GhmSizes {
             states: l.nx,
             inputs: l.nu,
             disturbances: l.nd,
-            outputs: self.plant.model.outputs.len(),
+            outputs: plant.model.outputs.len(),
             forecast_rows: self.forecast_rows,
-            sample_period_s: self.plant.model.sample_period,
+            sample_period_s: plant.model.sample_period,
         }
     }
 
@@ -223,25 +219,16 @@ impl EmbeddedController {
             previous_input,
             forecast,
         };
-        let decision = self
-            .stepper
-            .decide(
-                &self.plant,
-                &self.params,
-                &mut self.workspace,
-                self.controller.as_mut(),
-                &request,
-            )
-            .map_err(|e| {
-                if e.is_bad_request() {
-                    EmbedError::Argument(e.to_string())
-                } else {
-                    EmbedError::Controller {
-                        step,
-                        message: e.to_string(),
-                    }
+        let decision = self.held.decide(&request).map_err(|e| {
+            if e.is_bad_request() {
+                EmbedError::Argument(e.to_string())
+            } else {
+                EmbedError::Controller {
+                    step,
+                    message: e.to_string(),
                 }
-            })?;
+            }
+        })?;
         self.last = Some(decision.record);
         Ok(decision.input)
     }
@@ -266,14 +253,7 @@ impl EmbeddedController {
             terms: Vec::new(),
             next_outputs: Vec::new(),
         };
-        self.plant.step_into(
-            &mut self.workspace,
-            state,
-            input,
-            weather,
-            &self.params,
-            &mut out,
-        );
+        self.held.step_plant(state, input, weather, &mut out);
         if let Some(i) = out.next_state.iter().position(|v| !v.is_finite()) {
             return Err(EmbedError::Argument(format!(
                 "the model's step gives {} = {}: the state, input or weather is outside what \
@@ -288,7 +268,7 @@ impl EmbeddedController {
     /// The names of one kind of quantity, in the model's order (for disturbances, the
     /// weather columns they are read from).
     pub fn names(&self, kind: Quantity) -> Vec<String> {
-        let m = &self.plant.model;
+        let m = &self.held.plant().model;
         match kind {
             Quantity::State => m.states.iter().map(|s| s.info.name.clone()).collect(),
             Quantity::Input => m.inputs.iter().map(|u| u.info.name.clone()).collect(),

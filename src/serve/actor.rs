@@ -15,10 +15,9 @@ use super::journal::{Entry, Journal, Outcome};
 use super::metrics::Metrics;
 use super::validate::{check, Checked};
 use super::ServeError;
-use crate::control::{Fallback, LimitPolicy, StepRequest, Stepper};
+use crate::control::{Fallback, LimitPolicy, StepRequest, SteppedController, Stepper};
 use crate::job::output::model_hash;
 use crate::job::{build_controller, RunSpec, StandaloneController};
-use crate::model::StepWorkspace;
 use crate::solve::SolveStatus;
 use axum::http::StatusCode;
 use std::collections::HashMap;
@@ -167,9 +166,9 @@ const MAX_BATCH: usize = 256;
 
 /// One greenhouse's controller and where its steps stand.
 struct Session {
-    controller: StandaloneController,
-    params: Vec<f64>,
-    workspace: StepWorkspace,
+    /// The controller with its plant, step workspace and the service's stepper (the input
+    /// clipped to its limits, the horizon's forecast rows required, the plan kept).
+    controller: SteppedController,
     /// The last step decided (journaled, or in the batch being decided).
     last_step: Option<u64>,
 }
@@ -414,12 +413,11 @@ impl Actor {
             Some(c) => c,
             None => build_controller(&self.spec)?,
         };
-        let params = controller.plant.model.nominal_params();
-        let workspace = controller.plant.workspace();
+        let stepper = Stepper::new(LimitPolicy::Clip)
+            .with_forecast_rows(controller.forecast_rows)
+            .with_plans();
         Ok(Session {
-            controller,
-            params,
-            workspace,
+            controller: SteppedController::new(controller.plant, controller.controller, stepper),
             last_step: None,
         })
     }
@@ -473,7 +471,7 @@ fn decide_and_record(session: &mut Session, c: &Checked, history: &History) -> O
 /// The outputs of a plan's predicted states `x_{i+1}`, with its inputs `u_i` and the
 /// forecast row of step `i+1` (the last row past the forecast's end).
 fn planned_outputs(session: &Session, plan: &PlanJson, forecast: &[f64]) -> Vec<Vec<f64>> {
-    let plant = &session.controller.plant;
+    let plant = session.controller.plant();
     let nd = plant.layout.nd;
     let rows = forecast.len().checked_div(nd).unwrap_or(0);
     plan.states
@@ -484,7 +482,7 @@ fn planned_outputs(session: &Session, plan: &PlanJson, forecast: &[f64]) -> Vec<
             let row = (i + 1).min(rows.saturating_sub(1));
             forecast
                 .get(row * nd..(row + 1) * nd)
-                .map(|d| plant.outputs(x, u, d, &session.params))
+                .map(|d| plant.outputs(x, u, d, session.controller.params()))
                 .unwrap_or_default()
         })
         .collect()
@@ -494,7 +492,6 @@ fn planned_outputs(session: &Session, plan: &PlanJson, forecast: &[f64]) -> Vec<
 /// [`Stepper`] every door shares (the input clipped to its bounds and rate limits); returns
 /// the outputs the controller observed with the outcome (none where it failed).
 fn decide(session: &mut Session, c: &Checked) -> (Outcome, Vec<f64>) {
-    let s = &mut session.controller;
     let request = StepRequest {
         step: c.step,
         state: &c.state,
@@ -502,16 +499,7 @@ fn decide(session: &mut Session, c: &Checked) -> (Outcome, Vec<f64>) {
         previous_input: &c.previous_input,
         forecast: &c.forecast,
     };
-    let stepper = Stepper::new(LimitPolicy::Clip)
-        .with_forecast_rows(s.forecast_rows)
-        .with_plans();
-    match stepper.decide(
-        &s.plant,
-        &session.params,
-        &mut session.workspace,
-        s.controller.as_mut(),
-        &request,
-    ) {
+    match session.controller.decide(&request) {
         Ok(d) => {
             let r = d.record;
             let answer = Outcome::Answer(DecideResponse {
