@@ -460,3 +460,42 @@ fn the_rl_environment_runs_the_imported_model() {
         started.elapsed().as_secs_f64()
     );
 }
+
+/// The economic problem on the imported model (`models/greenlight/tomato_economic.ghm`,
+/// issue 35): it loads on top of the shipped model, and a day of GreenLight's rules earns
+/// a positive crop value and pays for heat, lamps and CO₂, every term finite.
+#[test]
+fn the_economic_tomato_model_prices_a_day_of_the_rules() {
+    let Some(models) = greenlight_models() else {
+        let _ = writeln!(
+            std::io::stderr(),
+            "skipped: needs GreenLight's weather (GHM_GREENLIGHT_MODELS); .ci/run provides it"
+        );
+        return;
+    };
+    let weather = import(&models, "greenlight-economic", &[]).join("weather.csv");
+    let spec = ghm::job::RunSpec {
+        model: Path::new(env!("CARGO_MANIFEST_DIR")).join("models/greenlight/tomato_economic.ghm"),
+        weather: ghm::job::WeatherSpec {
+            weather: Some(weather),
+            days: Some(1.0),
+            ..ghm::job::WeatherSpec::default()
+        },
+        plant: ghm::job::PlantSpec::NOMINAL,
+        controller: ghm::job::ControllerSpec::Rules,
+    };
+    let season = ghm::job::run_season_logs(&spec).unwrap_or_else(|e| panic!("{e}"));
+    let m = &season.plant.model;
+    let names: Vec<&str> = m.terms.iter().map(|t| t.info.name.as_str()).collect();
+    assert_eq!(
+        names,
+        ["crop_value", "heat_cost", "electricity_cost", "co2_cost"]
+    );
+    let totals: Vec<f64> = (0..names.len())
+        .map(|i| season.logs.iter().map(|log| log.terms[i]).sum())
+        .collect();
+    eprintln!("a day of the rules: {names:?} = {totals:?}");
+    assert!(totals.iter().all(|t| t.is_finite()), "{totals:?}");
+    assert!(totals[0] > 0.0, "the crop gains value: {totals:?}");
+    assert!(totals[1..].iter().all(|t| *t < 0.0), "costs: {totals:?}");
+}
