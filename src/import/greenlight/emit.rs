@@ -56,6 +56,9 @@ pub struct EmitOptions {
     pub substeps: usize,
     /// Comment lines for the header (without `# `).
     pub header: Vec<String>,
+    /// Variables (GreenLight names) the model does not use, left out and only listed in
+    /// a comment at the end of the file.
+    pub unused: Vec<String>,
 }
 
 /// How many statements of each kind were written.
@@ -79,10 +82,14 @@ pub struct Counts {
     pub functions: usize,
     /// GreenLight functions written as built-ins (`ifElse`, `min`, `max`).
     pub builtin_functions: usize,
-    /// `output` (the rules of the inputs, and the readings a grower looks at).
+    /// `output` (the readings a grower looks at).
     pub outputs: usize,
     /// Variables written as nothing (`time`).
     pub skipped: usize,
+    /// GreenLight `const`s the model does not use, left out (listed at the end).
+    pub unused_consts: usize,
+    /// GreenLight `aux`es the model does not use, left out (listed at the end).
+    pub unused_auxes: usize,
 }
 
 /// The `.ghm` text and what it holds.
@@ -701,6 +708,13 @@ pub fn emit(model: &Resolved, opts: &EmitOptions) -> Result<Emitted, ImportError
     for (group, vars) in &sections {
         let _ = writeln!(out, "\n# ---- {} ----", one_line(group));
         for v in vars {
+            if opts.unused.contains(&v.name) {
+                match v.kind {
+                    Kind::Const => counts.unused_consts += 1,
+                    _ => counts.unused_auxes += 1,
+                }
+                continue;
+            }
             let role = roles[&v.name];
             let name = names
                 .get(&v.name)
@@ -899,6 +913,21 @@ pub fn emit(model: &Resolved, opts: &EmitOptions) -> Result<Emitted, ImportError
             sum.join(" + "),
             quote(r.description)
         );
+    }
+    if !opts.unused.is_empty() {
+        out.push_str(
+            "\n# Left out: GreenLight defines these, and this model uses none of them:\n#",
+        );
+        let mut width = 1;
+        for name in &opts.unused {
+            if width + name.len() + 1 > 88 {
+                out.push_str("\n#");
+                width = 1;
+            }
+            let _ = write!(out, " {name}");
+            width += name.len() + 1;
+        }
+        out.push('\n');
     }
     Ok(Emitted {
         text: out,

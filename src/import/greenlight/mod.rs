@@ -137,7 +137,7 @@ pub fn convert(opts: &Options) -> Result<Imported, ImportError> {
     };
     let name = model_name(&opts.model);
     let header = header(opts, &resolved, weather_path.as_deref());
-    let emit_opts = emit::EmitOptions {
+    let mut emit_opts = emit::EmitOptions {
         model_name: name.clone(),
         inputs,
         weather_columns: table.as_ref().map(Table::data_columns).unwrap_or_default(),
@@ -145,8 +145,26 @@ pub fn convert(opts: &Options) -> Result<Imported, ImportError> {
         step_s: opts.step_s,
         substeps,
         header,
+        unused: Vec::new(),
     };
-    let emitted = emit::emit(&resolved, &emit_opts)?;
+    let file = format!("{name}.ghm");
+    // Emitted, loaded, and emitted again without the constants and lets the model does not
+    // use (each leaving out may leave another unused), so that every run of the model is
+    // not preceded by a page of warnings; they are listed at the end of the file.
+    let (emitted, model) = loop {
+        let emitted = emit::emit(&resolved, &emit_opts)?;
+        let model =
+            crate::lang::load_str(&file, &emitted.text).map_err(|f| ImportError::Check {
+                file: file.clone(),
+                report: f.render(),
+            })?;
+        let unused = unused_definitions(&model, &emitted);
+        if unused.is_empty() || emit_opts.unused.len() > resolved.vars.len() {
+            break (emitted, model);
+        }
+        emit_opts.unused.extend(unused);
+        emit_opts.unused.sort();
+    };
     for (from, to) in &emitted.renamed {
         notes.push(format!(
             "`{from}` renamed `{to}` (reserved in the .ghm language)"
@@ -165,11 +183,6 @@ pub fn convert(opts: &Options) -> Result<Imported, ImportError> {
             }
         }
     }
-    let file = format!("{name}.ghm");
-    let model = crate::lang::load_str(&file, &emitted.text).map_err(|f| ImportError::Check {
-        file: file.clone(),
-        report: f.render(),
-    })?;
     Ok(Imported {
         name,
         text: emitted.text,
@@ -179,6 +192,27 @@ pub fn convert(opts: &Options) -> Result<Imported, ImportError> {
         weather: weather_path.zip(table),
         notes,
     })
+}
+
+/// The constants and lets (GreenLight names) that `model`, loaded from `emitted`, warns
+/// are never used (W001).
+fn unused_definitions(model: &crate::lang::Model, emitted: &emit::Emitted) -> Vec<String> {
+    model
+        .warnings
+        .iter()
+        .filter(|d| {
+            d.code == "W001"
+                && (d.message.starts_with("constant ") || d.message.starts_with("let "))
+        })
+        .filter_map(|d| emitted.text.get(d.span.start..d.span.end))
+        .map(|written| {
+            emitted
+                .renamed
+                .iter()
+                .find(|(_, to)| to == written)
+                .map_or(written.to_string(), |(from, _)| from.clone())
+        })
+        .collect()
 }
 
 /// Writes `DIR/<name>.ghm` and, with weather, `DIR/weather.csv`; returns the paths.
