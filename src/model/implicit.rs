@@ -26,7 +26,8 @@
 //!   correction of 1e-10 ([`Purpose`]); both far below the integration error, so that the
 //!   derivatives below are those of the step actually taken. A workspace for derivatives
 //!   keeps nothing from one step to the next, so that its numbers do not depend on which
-//!   steps were solved before.
+//!   steps were solved before. Each iteration evaluates `f` at every stage in one pass
+//!   of the tape ([`Tape::eval_points`]).
 //! * **Jacobian**: `W_z = −G_W⁻¹ G_z` and `dP/dz = P_z + P_W W_z`.
 //! * **Hessian of `λᵀP`**: with the adjoint `μ` of `G_Wᵀ μ = −P_Wᵀ λ`, the Lagrangian
 //!   `L = λᵀP + μᵀG` is stationary in `W`, and `∇²(λᵀP) = Tᵀ ∇²L T` with `T = [I; W_z]`.
@@ -36,7 +37,7 @@ use nalgebra::{DMatrix, DVector, Dyn, LU};
 
 use super::eigen_split::{EigenSplit, SplitMatrix};
 use super::Layout;
-use crate::graph::{Derivatives, Evaluation, Graph, NodeId, Tape, Workspace};
+use crate::graph::{Derivatives, Evaluation, Graph, NodeId, PointsWorkspace, Tape, Workspace};
 use crate::lang::model::{Integrator, Model};
 
 /// Newton iterations allowed per sub-step before the step is declared failed.
@@ -77,6 +78,8 @@ impl Purpose {
 const ROUND_OFF_FLOOR: f64 = 1e-9;
 /// The contraction above which `J` is evaluated anew at each stage's latest value.
 const SLOW_CONTRACTION: f64 = 0.5;
+/// The stages whose `f` one evaluation of the tape gives (every stage of RADAU5 and SDIRK3).
+const STAGE_POINTS: usize = 4;
 /// The rate of contraction of a sub-step above which the next one takes `J` afresh, where
 /// the Newton matrix splits ([`EigenSplit`]): a fresh split matrix costs about as much as
 /// three Newton iterations, and the GreenLight season is fastest with this rate (0.01 and
@@ -275,7 +278,10 @@ pub(crate) struct ImplicitStep {
 /// Scratch of one implicit step: the Newton iteration's buffers and the stage values.
 #[derive(Debug, Clone)]
 pub(crate) struct ImplicitWorkspace {
-    rhs_ws: Workspace<f64>,
+    /// `f` at up to [`STAGE_POINTS`] stages at once: the tape's scratch, inputs and outputs.
+    stage_ws: PointsWorkspace<STAGE_POINTS>,
+    stage_inputs: Vec<[f64; STAGE_POINTS]>,
+    stage_slopes: Vec<[f64; STAGE_POINTS]>,
     rhs_jacobian: Derivatives,
     rhs_inputs: Vec<f64>,
     slopes: Vec<f64>,
@@ -358,7 +364,9 @@ impl ImplicitStep {
         let nx = self.layout.nx;
         let sn = self.tableau.stages * nx;
         ImplicitWorkspace {
-            rhs_ws: self.rhs.workspace(),
+            stage_ws: self.rhs.points_workspace(),
+            stage_inputs: vec![[0.0; STAGE_POINTS]; self.layout.n_base()],
+            stage_slopes: vec![[0.0; STAGE_POINTS]; nx],
             rhs_jacobian: Derivatives::new(&self.rhs, &(0..nx).collect::<Vec<_>>()),
             rhs_inputs: vec![0.0; self.layout.n_base()],
             slopes: vec![0.0; sn],
@@ -515,16 +523,9 @@ impl ImplicitStep {
         let s = self.tableau.stages;
         let mut previous = f64::INFINITY;
         let mut eta = first_eta(ws.eta);
+        self.set_stage_base(ws, base);
         for _ in 0..MAX_NEWTON_ITERATIONS {
-            for i in 0..s {
-                let (x, t) = self.stage_point(ws, i, t0, h);
-                self.set_rhs_inputs(ws, base, &x, t);
-                self.rhs.eval(
-                    &mut ws.rhs_ws,
-                    &ws.rhs_inputs,
-                    &mut ws.slopes[i * nx..(i + 1) * nx],
-                );
-            }
+            self.stage_slopes(ws, base, t0, h);
             for i in 0..s {
                 for k in 0..nx {
                     let sum: f64 = (0..s)
@@ -570,6 +571,46 @@ impl ImplicitStep {
             previous = size;
         }
         Err(NewtonFailure)
+    }
+
+    /// The inputs of `f` that are the same at every stage, `(u, d, p)` of `base`, into
+    /// every point of `ws.stage_inputs` (the clock's time, too, which
+    /// [`stage_slopes`](Self::stage_slopes) moves on per stage).
+    fn set_stage_base(&self, ws: &mut ImplicitWorkspace, base: &[f64]) {
+        let nx = self.layout.nx;
+        for (input, &b) in ws.stage_inputs[nx..].iter_mut().zip(&base[nx..]) {
+            *input = [b; STAGE_POINTS];
+        }
+    }
+
+    /// `f` at every stage's value `start + increments` and time into `ws.slopes`, up to
+    /// [`STAGE_POINTS`] stages per evaluation of the tape; the points past the last stage
+    /// repeat it. `ws.stage_inputs` holds the stages' common inputs
+    /// ([`set_stage_base`](Self::set_stage_base)).
+    fn stage_slopes(&self, ws: &mut ImplicitWorkspace, base: &[f64], t0: f64, h: f64) {
+        let nx = self.layout.nx;
+        let s = self.tableau.stages;
+        for first in (0..s).step_by(STAGE_POINTS) {
+            let count = STAGE_POINTS.min(s - first);
+            let stage_of = |point: usize| first + point.min(count - 1);
+            for (k, input) in ws.stage_inputs[..nx].iter_mut().enumerate() {
+                *input = std::array::from_fn(|point| {
+                    ws.start[k] + ws.increments[stage_of(point) * nx + k]
+                });
+            }
+            if let Some(c) = self.clock {
+                let clock = base[c];
+                ws.stage_inputs[c] =
+                    std::array::from_fn(|point| clock + t0 + self.tableau.c[stage_of(point)] * h);
+            }
+            self.rhs
+                .eval_points(&mut ws.stage_ws, &ws.stage_inputs, &mut ws.stage_slopes);
+            for point in 0..count {
+                for (k, slope) in ws.stage_slopes.iter().enumerate() {
+                    ws.slopes[(first + point) * nx + k] = slope[point];
+                }
+            }
+        }
     }
 
     /// Solves `matrix · Δ = r` in place (`r`, then the correction `Δ`); false where the
