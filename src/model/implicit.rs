@@ -81,7 +81,7 @@ const ROUND_OFF_FLOOR: f64 = 1e-9;
 /// The contraction above which `J` is evaluated anew at each stage's latest value.
 const SLOW_CONTRACTION: f64 = 0.5;
 /// The stages whose `f` one evaluation of the tape gives (every stage of RADAU5 and SDIRK3).
-const STAGE_POINTS: usize = 4;
+const STAGE_POINTS: usize = 3;
 /// The rate of contraction of a sub-step above which the next one takes `J` afresh, where
 /// the Newton matrix splits ([`EigenSplit`]): a fresh split matrix costs about as much as
 /// a few Newton iterations, and the GreenLight season is fastest with this rate (0.03 and
