@@ -58,7 +58,7 @@ pub use derivative::{gradient_f64, Derivatives, Evaluation};
 pub use lanes::{LaneVector, Lanes, LANES};
 pub use op::{Op, Real};
 pub use sparsity::Sparsity;
-pub use tape::{Tape, Workspace};
+pub use tape::{PointsWorkspace, Tape, Workspace};
 
 use std::collections::HashMap;
 

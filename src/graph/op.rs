@@ -230,6 +230,20 @@ impl Op {
         self.apply(a, b, c)
     }
 
+    /// The values at `N` points at once, point by point as [`Op::apply_f64`]: one dispatch
+    /// for the `N` of them, and the four arithmetic ops (most of a model's instructions) in
+    /// one loop over the points.
+    #[inline]
+    pub fn apply_points<const N: usize>(self, a: [f64; N], b: [f64; N], c: [f64; N]) -> [f64; N] {
+        match self {
+            Op::Add => std::array::from_fn(|l| a[l] + b[l]),
+            Op::Sub => std::array::from_fn(|l| a[l] - b[l]),
+            Op::Mul => std::array::from_fn(|l| a[l] * b[l]),
+            Op::Div => std::array::from_fn(|l| a[l] / b[l]),
+            _ => std::array::from_fn(|l| self.apply_f64(a[l], b[l], c[l])),
+        }
+    }
+
     /// Partial derivatives of the op with respect to each argument, at `(a, b, c)` whose
     /// value is `out`. The common smooth ops reuse `out` (e.g. `d exp(a)/da = out`); all
     /// others come from evaluating [`Op::apply`] on `Dual<T>`, so there is one definition

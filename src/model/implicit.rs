@@ -13,24 +13,32 @@
 //! `P(z, W)` (`x⁺`, the stage terms, `y(x⁺)`) and the residuals `G(z, W)` are graph nodes
 //! compiled into one tape, so their derivatives are exact.
 //!
-//! * **Values**: simplified Newton per sub-step with the matrix `I − h A ⊗ J`. The last
-//!   sub-step's factored matrix is tried first (across steps too, in a simulation's
-//!   workspace: RADAU5's rule), from the last sub-step's collocation polynomial continued;
-//!   where it contracts slowly, `J` is taken afresh at the start, and at every stage where
-//!   that slows too; a step that still fails is split into up to 64 pieces. Converged to a
-//!   scaled correction of 1e-8 in a simulation, 1e-10 for derivatives ([`Purpose`]), far
-//!   below the integration error, so that the derivatives below are those of the step
-//!   actually taken. A workspace for derivatives keeps nothing from one step to the next,
-//!   so that its numbers do not depend on which steps were solved before.
+//! * **Values**: simplified Newton per sub-step with the matrix `I − h A ⊗ J`, split by the
+//!   eigenvalues of `A⁻¹` into `n × n` systems for RADAU3 and RADAU5
+//!   ([`super::eigen_split`]). The last sub-step's factored matrix is tried first (across
+//!   steps too, in a simulation's workspace: RADAU5's rule), from the last sub-step's
+//!   collocation polynomial continued; where it contracts slowly, `J` is taken afresh at
+//!   the start, and at every stage where that slows too; a step that still fails is
+//!   split into up to 64 pieces. (Taking `J` afresh at a sub-step's start wherever the
+//!   last one contracted at a rate above 0.1 saved 3 % of the GreenLight season but made
+//!   a step from its initial state three times slower: not kept.) In a simulation,
+//!   converged when the error left, estimated from the rate of contraction
+//!   (`η ‖Δ‖`, Hairer & Wanner IV.8), is below 1e-7 scaled; for derivatives, at a scaled
+//!   correction of 1e-10 ([`Purpose`]); both far below the integration error, so that the
+//!   derivatives below are those of the step actually taken. A workspace for derivatives
+//!   keeps nothing from one step to the next, so that its numbers do not depend on which
+//!   steps were solved before. Each iteration evaluates `f` at every stage in one pass
+//!   of the tape ([`Tape::eval_points`]).
 //! * **Jacobian**: `W_z = −G_W⁻¹ G_z` and `dP/dz = P_z + P_W W_z`.
 //! * **Hessian of `λᵀP`**: with the adjoint `μ` of `G_Wᵀ μ = −P_Wᵀ λ`, the Lagrangian
 //!   `L = λᵀP + μᵀG` is stationary in `W`, and `∇²(λᵀP) = Tᵀ ∇²L T` with `T = [I; W_z]`.
 //!   The Newton iterations themselves are never differentiated.
 
-use nalgebra::{DMatrix, Dyn, LU};
+use nalgebra::{DMatrix, DVector, Dyn, LU};
 
+use super::eigen_split::{EigenSplit, SplitMatrix};
 use super::Layout;
-use crate::graph::{Derivatives, Evaluation, Graph, NodeId, Tape, Workspace};
+use crate::graph::{Derivatives, Evaluation, Graph, NodeId, PointsWorkspace, Tape, Workspace};
 use crate::lang::model::{Integrator, Model};
 
 /// Newton iterations allowed per sub-step before the step is declared failed.
@@ -38,22 +46,34 @@ const MAX_NEWTON_ITERATIONS: usize = 60;
 /// What a workspace solves steps for, which sets how far Newton goes and what it keeps.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Purpose {
-    /// A simulation: converged to a scaled correction of 1e-8, far below the integration
-    /// error (the GreenLight open loop meets its tolerances with 1e-8 as with 1e-10, and
-    /// takes a quarter less time); the factored matrix carries over from step to step.
+    /// A simulation: converged when the error left in the stage values, estimated from the
+    /// rate of contraction, is below 1e-7 (scaled), far below the integration error (the
+    /// GreenLight open loop's worst shares of its tolerances move by 0.001 at most from
+    /// 1e-8, and 1e-6 moves vpTop's by 0.01); the factored matrix carries over from step to
+    /// step. An optimiser's values are solved as derivatives are
+    /// ([`super::Plant::optimisation_workspace`]).
     Simulation,
-    /// Derivatives by the implicit function theorem: converged to 1e-10, so that `G = 0`
-    /// holds to what the derivatives need; nothing carries over from one step to the next,
-    /// so that the numbers do not depend on which steps were solved before.
+    /// Derivatives by the implicit function theorem: converged to a correction of 1e-10,
+    /// so that `G = 0` holds to what the derivatives need; nothing carries over from one
+    /// step to the next, so that the numbers do not depend on which steps were solved
+    /// before.
     Derivatives,
 }
 
+/// The error a simulation's Newton iteration may leave in the stage values, relative to
+/// `1 + |x|`, as estimated by `η ‖Δ‖` (Hairer & Wanner, *Solving ODEs II*, IV.8).
+const SIMULATION_TOLERANCE: f64 = 1e-7;
+/// The largest correction, relative to `1 + |x|`, of a converged iteration for derivatives.
+const DERIVATIVES_TOLERANCE: f64 = 1e-10;
+
 impl Purpose {
-    /// Converged when the largest Newton correction, relative to `1 + |x|`, is below this.
-    fn tolerance(self) -> f64 {
+    /// Whether an iteration whose last correction had the scaled size `size` has converged,
+    /// `eta = θ / (1 − θ)` bounding the error left by the correction's size (`θ` the rate
+    /// of contraction): what is left after a correction `Δ` is at most `η ‖Δ‖`.
+    fn converged(self, size: f64, eta: f64) -> bool {
         match self {
-            Purpose::Simulation => 1e-8,
-            Purpose::Derivatives => 1e-10,
+            Purpose::Simulation => eta * size <= SIMULATION_TOLERANCE,
+            Purpose::Derivatives => size <= DERIVATIVES_TOLERANCE,
         }
     }
 }
@@ -61,6 +81,8 @@ impl Purpose {
 const ROUND_OFF_FLOOR: f64 = 1e-9;
 /// The contraction above which `J` is evaluated anew at each stage's latest value.
 const SLOW_CONTRACTION: f64 = 0.5;
+/// The stages whose `f` one evaluation of the tape gives (every stage of RADAU5 and SDIRK3).
+const STAGE_POINTS: usize = 3;
 /// The most pieces a failed step is split into before it is declared failed.
 const MAX_SPLIT: usize = 64;
 
@@ -155,6 +177,17 @@ pub(crate) struct ImplicitNodes {
     pub residuals: Vec<NodeId>,
 }
 
+/// The `η` that judges a sub-step's first iteration, from the last converged one's:
+/// `η^0.8` (a little more cautious than the last rate), no smaller than round-off.
+fn first_eta(last: f64) -> f64 {
+    last.max(f64::EPSILON).powf(0.8)
+}
+
+/// `η = θ / (1 − θ)` of a rate of contraction `θ < 1`.
+fn contraction_eta(theta: f64) -> f64 {
+    theta / (1.0 - theta)
+}
+
 /// Variable number of stage `stage` of sub-step `sub`, state `k`.
 fn w_var(w_offset: usize, nx: usize, stages: usize, sub: usize, stage: usize, k: usize) -> usize {
     w_offset + (sub * stages + stage) * nx + k
@@ -203,10 +236,21 @@ pub(crate) fn build_nodes(
     }
 }
 
+/// A factored simplified Newton matrix.
+#[derive(Debug, Clone)]
+enum NewtonMatrix {
+    /// `I − h (A ⊗ I) diag(J₁ … J_s)`, factored whole.
+    Dense(LU<f64, Dyn, Dyn>),
+    /// `I − h A ⊗ J`, one `J` for every stage, split by the eigenvalues of `A⁻¹`.
+    Split(SplitMatrix),
+}
+
 /// An implicit step, compiled: what [`super::Plant`] holds for an implicit integrator.
 #[derive(Debug, Clone)]
 pub(crate) struct ImplicitStep {
     tableau: Tableau,
+    /// `A⁻¹ = T Λ T⁻¹`, where the tableau has such a split (RADAU3, RADAU5).
+    split: Option<EigenSplit>,
     /// `L_j(1 + c_i)`, `s × s`: the Lagrange basis on the nodes `0, c₁ … c_s` (the node 0
     /// carries the value 0 and drops out) at the next sub-step's stage times.
     extrapolation: Vec<f64>,
@@ -227,7 +271,10 @@ pub(crate) struct ImplicitStep {
 /// Scratch of one implicit step: the Newton iteration's buffers and the stage values.
 #[derive(Debug, Clone)]
 pub(crate) struct ImplicitWorkspace {
-    rhs_ws: Workspace<f64>,
+    /// `f` at up to [`STAGE_POINTS`] stages at once: the tape's scratch, inputs and outputs.
+    stage_ws: PointsWorkspace<STAGE_POINTS>,
+    stage_inputs: Vec<[f64; STAGE_POINTS]>,
+    stage_slopes: Vec<[f64; STAGE_POINTS]>,
     rhs_jacobian: Derivatives,
     rhs_inputs: Vec<f64>,
     slopes: Vec<f64>,
@@ -240,12 +287,16 @@ pub(crate) struct ImplicitWorkspace {
     full_inputs: Vec<f64>,
     post_ws: Workspace<f64>,
     /// The factored Newton matrix of the last sub-step solved, and its sub-step length.
-    newton: Option<(LU<f64, Dyn, Dyn>, f64)>,
+    newton: Option<(NewtonMatrix, f64)>,
     /// The stage increments of the last sub-step solved and its length: the start of the
     /// next sub-step's iteration, extrapolated.
     previous: Option<(Vec<f64>, f64)>,
     /// What the steps are solved for.
     purpose: Purpose,
+    /// `η = θ / (1 − θ)` of the last iteration that converged (`θ` its rate of
+    /// contraction): the first iteration of the next sub-step, with no rate of its own yet,
+    /// is judged by it.
+    eta: f64,
 }
 
 /// The Newton iteration of a sub-step did not converge (or met a number that is not finite).
@@ -275,6 +326,7 @@ impl ImplicitStep {
             post: graph.compile(step_outputs, n_in),
             combined: graph.compile(&all, n_in),
             extrapolation: extrapolation(&tableau),
+            split: EigenSplit::of(&tableau.a, tableau.stages),
             tableau,
             layout,
             w_offset,
@@ -292,11 +344,22 @@ impl ImplicitStep {
         &self.combined
     }
 
+    /// Scratch for steps solved for `purpose`.
+    pub fn workspace_for(&self, purpose: Purpose) -> ImplicitWorkspace {
+        ImplicitWorkspace {
+            purpose,
+            ..self.workspace()
+        }
+    }
+
+    /// Scratch for a simulation's steps.
     pub fn workspace(&self) -> ImplicitWorkspace {
         let nx = self.layout.nx;
         let sn = self.tableau.stages * nx;
         ImplicitWorkspace {
-            rhs_ws: self.rhs.workspace(),
+            stage_ws: self.rhs.points_workspace(),
+            stage_inputs: vec![[0.0; STAGE_POINTS]; self.layout.n_base()],
+            stage_slopes: vec![[0.0; STAGE_POINTS]; nx],
             rhs_jacobian: Derivatives::new(&self.rhs, &(0..nx).collect::<Vec<_>>()),
             rhs_inputs: vec![0.0; self.layout.n_base()],
             slopes: vec![0.0; sn],
@@ -309,26 +372,38 @@ impl ImplicitStep {
             newton: None,
             previous: None,
             purpose: Purpose::Simulation,
+            eta: 1.0,
         }
     }
 
     /// The Newton matrix `I − h (A ⊗ I) diag(J₁ … J_s)`, `J_j = ∂f/∂x` at stage `j`'s
-    /// state and time in `points`; one point stands for every stage (simplified Newton).
+    /// state and time in `points`, factored; one point stands for every stage (simplified
+    /// Newton), and is split by the eigenvalues of `A⁻¹` where the tableau allows.
     fn newton_matrix(
         &self,
         ws: &mut ImplicitWorkspace,
         base: &[f64],
         points: &[(Vec<f64>, f64)],
         h: f64,
-    ) -> DMatrix<f64> {
+    ) -> NewtonMatrix {
         let nx = self.layout.nx;
-        let s = self.tableau.stages;
         let mut jacobians = Vec::with_capacity(points.len());
         for (x, t) in points {
             self.set_rhs_inputs(ws, base, x, *t);
             let jac = ws.rhs_jacobian.jacobian(&self.rhs, &ws.rhs_inputs);
             jacobians.push(jac.jacobian.clone());
         }
+        match (&self.split, jacobians.as_slice()) {
+            (Some(split), [jacobian]) => NewtonMatrix::Split(split.factor(jacobian, nx, h)),
+            _ => NewtonMatrix::Dense(self.dense_newton_matrix(&jacobians, h).lu()),
+        }
+    }
+
+    /// `I − h (A ⊗ I) diag(J₁ … J_s)` whole; fewer Jacobians than stages stand for the
+    /// stages from the last on.
+    fn dense_newton_matrix(&self, jacobians: &[Vec<f64>], h: f64) -> DMatrix<f64> {
+        let nx = self.layout.nx;
+        let s = self.tableau.stages;
         // The matrix only steers the iteration (the residuals decide convergence): an entry
         // of J that is not finite (a term like |x|^0.33 at x = 0) is left out.
         DMatrix::from_fn(s * nx, s * nx, |r, c| {
@@ -382,7 +457,7 @@ impl ImplicitStep {
         }
         ws.increments.fill(0.0);
         let start_point = vec![(ws.start.clone(), t0)];
-        let fresh = self.newton_matrix(ws, base, &start_point, h).lu();
+        let fresh = self.newton_matrix(ws, base, &start_point, h);
         let lu = self.newton(ws, base, t0, h, fresh, false)?;
         ws.newton = Some((lu, h));
         ws.previous = Some((ws.increments.clone(), h));
@@ -421,22 +496,16 @@ impl ImplicitStep {
         base: &[f64],
         t0: f64,
         h: f64,
-        mut lu: LU<f64, Dyn, Dyn>,
+        mut lu: NewtonMatrix,
         reused: bool,
-    ) -> Result<LU<f64, Dyn, Dyn>, NewtonFailure> {
+    ) -> Result<NewtonMatrix, NewtonFailure> {
         let nx = self.layout.nx;
         let s = self.tableau.stages;
         let mut previous = f64::INFINITY;
+        let mut eta = first_eta(ws.eta);
+        self.set_stage_base(ws, base);
         for _ in 0..MAX_NEWTON_ITERATIONS {
-            for i in 0..s {
-                let (x, t) = self.stage_point(ws, i, t0, h);
-                self.set_rhs_inputs(ws, base, &x, t);
-                self.rhs.eval(
-                    &mut ws.rhs_ws,
-                    &ws.rhs_inputs,
-                    &mut ws.slopes[i * nx..(i + 1) * nx],
-                );
-            }
+            self.stage_slopes(ws, base, t0, h);
             for i in 0..s {
                 for k in 0..nx {
                     let sum: f64 = (0..s)
@@ -445,13 +514,12 @@ impl ImplicitStep {
                     ws.residual[i * nx + k] = h * sum - ws.increments[i * nx + k];
                 }
             }
-            let mut correction = nalgebra::DVector::from_column_slice(&ws.residual);
-            if !lu.solve_mut(&mut correction) {
+            if !self.solve_newton(&mut lu, &mut ws.residual) {
                 return Err(NewtonFailure);
             }
             // A NaN anywhere (f undefined at a stage) is no convergence: `max` would skip it.
             let mut size = 0.0f64;
-            for (r, dz) in correction.iter().enumerate() {
+            for (r, dz) in ws.residual.iter().enumerate() {
                 ws.increments[r] += dz;
                 let scaled = dz.abs() / (1.0 + ws.start[r % nx].abs());
                 size = if scaled.is_nan() || size.is_nan() {
@@ -463,8 +531,13 @@ impl ImplicitStep {
             if !size.is_finite() {
                 return Err(NewtonFailure);
             }
-            if size <= ws.purpose.tolerance() || (size <= ROUND_OFF_FLOOR && size >= 0.5 * previous)
+            if previous.is_finite() && size < previous {
+                eta = contraction_eta(size / previous);
+            }
+            if ws.purpose.converged(size, eta)
+                || (size <= ROUND_OFF_FLOOR && size >= 0.5 * previous)
             {
+                ws.eta = eta;
                 return Ok(lu);
             }
             if size > SLOW_CONTRACTION * previous {
@@ -473,11 +546,66 @@ impl ImplicitStep {
                 }
                 let points: Vec<(Vec<f64>, f64)> =
                     (0..s).map(|i| self.stage_point(ws, i, t0, h)).collect();
-                lu = self.newton_matrix(ws, base, &points, h).lu();
+                lu = self.newton_matrix(ws, base, &points, h);
             }
             previous = size;
         }
         Err(NewtonFailure)
+    }
+
+    /// The inputs of `f` that are the same at every stage, `(u, d, p)` of `base`, into
+    /// every point of `ws.stage_inputs` (the clock's time, too, which
+    /// [`stage_slopes`](Self::stage_slopes) moves on per stage).
+    fn set_stage_base(&self, ws: &mut ImplicitWorkspace, base: &[f64]) {
+        let nx = self.layout.nx;
+        for (input, &b) in ws.stage_inputs[nx..].iter_mut().zip(&base[nx..]) {
+            *input = [b; STAGE_POINTS];
+        }
+    }
+
+    /// `f` at every stage's value `start + increments` and time into `ws.slopes`, up to
+    /// [`STAGE_POINTS`] stages per evaluation of the tape; the points past the last stage
+    /// repeat it. `ws.stage_inputs` holds the stages' common inputs
+    /// ([`set_stage_base`](Self::set_stage_base)).
+    fn stage_slopes(&self, ws: &mut ImplicitWorkspace, base: &[f64], t0: f64, h: f64) {
+        let nx = self.layout.nx;
+        let s = self.tableau.stages;
+        for first in (0..s).step_by(STAGE_POINTS) {
+            let count = STAGE_POINTS.min(s - first);
+            let stage_of = |point: usize| first + point.min(count - 1);
+            for (k, input) in ws.stage_inputs[..nx].iter_mut().enumerate() {
+                *input = std::array::from_fn(|point| {
+                    ws.start[k] + ws.increments[stage_of(point) * nx + k]
+                });
+            }
+            if let Some(c) = self.clock {
+                let clock = base[c];
+                ws.stage_inputs[c] =
+                    std::array::from_fn(|point| clock + t0 + self.tableau.c[stage_of(point)] * h);
+            }
+            self.rhs
+                .eval_points(&mut ws.stage_ws, &ws.stage_inputs, &mut ws.stage_slopes);
+            for point in 0..count {
+                for (k, slope) in ws.stage_slopes.iter().enumerate() {
+                    ws.slopes[(first + point) * nx + k] = slope[point];
+                }
+            }
+        }
+    }
+
+    /// Solves `matrix · Δ = r` in place (`r`, then the correction `Δ`); false where the
+    /// matrix is singular.
+    fn solve_newton(&self, matrix: &mut NewtonMatrix, r: &mut [f64]) -> bool {
+        match (matrix, &self.split) {
+            (NewtonMatrix::Split(m), Some(split)) => m.solve_mut(split, r),
+            (NewtonMatrix::Dense(lu), _) => {
+                let mut v = DVector::from_column_slice(r);
+                let solved = lu.solve_mut(&mut v);
+                r.copy_from_slice(v.as_slice());
+                solved
+            }
+            (NewtonMatrix::Split(_), None) => false,
+        }
     }
 
     /// Solves the stage equations of every sub-step from the base point `(x, u, d, p)`;
@@ -572,10 +700,7 @@ impl ImplicitDerivatives {
         ImplicitDerivatives {
             n_wrt: n,
             combined: Derivatives::new(&step.combined, &full),
-            ws: ImplicitWorkspace {
-                purpose: Purpose::Derivatives,
-                ..step.workspace()
-            },
+            ws: step.workspace_for(Purpose::Derivatives),
             weights: vec![0.0; m + step.n_w],
             w_z: DMatrix::zeros(step.n_w, n),
             result: Evaluation {

@@ -10,6 +10,7 @@
 //! language's [`Model`] and the graph.
 
 mod builder;
+mod eigen_split;
 pub mod finite;
 mod implicit;
 mod penalty;
@@ -25,7 +26,7 @@ pub use step_derivatives::StepDerivatives;
 use crate::graph::{Graph, NodeId, Tape, Workspace};
 use crate::lang::ast::TermKind;
 use crate::lang::model::{Integrator, Model};
-use implicit::{ImplicitStep, ImplicitWorkspace, Tableau};
+use implicit::{ImplicitStep, ImplicitWorkspace, Purpose, Tableau};
 
 /// The discrete step as graph nodes.
 #[derive(Debug, Clone, PartialEq)]
@@ -374,10 +375,28 @@ impl Plant {
         }
     }
 
+    /// Buffers like [`workspace`](Self::workspace) for an optimiser: an implicit step is
+    /// solved as [`StepDerivatives`] solves it (as tightly, and from no earlier step), so
+    /// that its values are those whose derivatives the optimiser takes. A simulation's
+    /// workspace stops Newton sooner, far below the integration error but not below what
+    /// central differences of the values see.
+    pub fn optimisation_workspace(&self) -> StepWorkspace {
+        StepWorkspace {
+            kernel: self.kernel_workspace_for(Purpose::Derivatives),
+            ..self.workspace()
+        }
+    }
+
     fn kernel_workspace(&self) -> KernelWorkspace {
+        self.kernel_workspace_for(Purpose::Simulation)
+    }
+
+    fn kernel_workspace_for(&self, purpose: Purpose) -> KernelWorkspace {
         match &self.step {
             StepKernel::Unrolled(tape) => KernelWorkspace::Unrolled(tape.workspace()),
-            StepKernel::Implicit(step) => KernelWorkspace::Implicit(Box::new(step.workspace())),
+            StepKernel::Implicit(step) => {
+                KernelWorkspace::Implicit(Box::new(step.workspace_for(purpose)))
+            }
         }
     }
 

@@ -261,7 +261,7 @@ impl Ocp {
         let nw = wrt.len();
         let mut ocp = Ocp {
             derivatives: StepDerivatives::new(&plant, &wrt),
-            workspace: plant.workspace(),
+            workspace: plant.optimisation_workspace(),
             tape_inputs: vec![0.0; l.n_base()],
             stage_values: vec![0.0; horizon * n_out],
             stage_jacobians: vec![0.0; horizon * n_out * nw],
