@@ -421,13 +421,13 @@ fn season_horizon_and_training_sizes_are_checked_before_anything_is_allocated() 
                 "--steps",
                 "2",
             ],
-            "at most 10000000 trajectories",
+            "--trajectories 18446744073709551615: must be from 1 to 10000000",
         ),
         (
             &[
                 "value", "--guide", "expert", "--epochs", &max, "--steps", "2",
             ],
-            "1000000 epochs",
+            "--epochs 18446744073709551615: must be from 1 to 1000000",
         ),
     ];
     for (args, message) in cases {
