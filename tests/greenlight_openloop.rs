@@ -365,6 +365,18 @@ fn closed_loop_with_greenlights_rules_matches_its_means() {
     );
 }
 
+/// A season of the rules controller on the shipped `model` (relative to the repository),
+/// on the nominal plant, through the job layer as `ghm simulate --rules` runs it.
+fn rules_season(model: &str, weather: ghm::job::WeatherSpec) -> ghm::job::SeasonLogs {
+    let spec = ghm::job::RunSpec {
+        model: Path::new(env!("CARGO_MANIFEST_DIR")).join(model),
+        weather,
+        plant: ghm::job::PlantSpec::NOMINAL,
+        controller: ghm::job::ControllerSpec::Rules,
+    };
+    ghm::job::run_season_logs(&spec).unwrap_or_else(|e| panic!("{e}"))
+}
+
 /// GreenLight's rules as a controller (`ghm simulate --rules`, the job layer's `rules`
 /// kind) on the shipped model: each input set by its `rule` at the step's state and
 /// weather and held for 300 s. Ten days against GreenLight's closed loop, where the rules
@@ -383,17 +395,14 @@ fn the_rules_controller_holds_greenlights_rules_over_each_step() {
     let weather = import(&models, "greenlight-rules-controller", &[]).join("weather.csv");
     let (names, rules) = read_table(&reference.join("rules.csv"));
     let steps = rules.len() - 1;
-    let spec = ghm::job::RunSpec {
-        model: Path::new(env!("CARGO_MANIFEST_DIR")).join("models/greenlight/katzin_2021.ghm"),
-        weather: ghm::job::WeatherSpec {
+    let season = rules_season(
+        "models/greenlight/katzin_2021.ghm",
+        ghm::job::WeatherSpec {
             weather: Some(weather),
             steps: Some(steps),
             ..ghm::job::WeatherSpec::default()
         },
-        plant: ghm::job::PlantSpec::NOMINAL,
-        controller: ghm::job::ControllerSpec::Rules,
-    };
-    let season = ghm::job::run_season_logs(&spec).unwrap_or_else(|e| panic!("{e}"));
+    );
     let m = &season.plant.model;
     let output = |name: &str| m.outputs.iter().position(|o| o.info.name == name).unwrap();
     let ours: Vec<f64> = READINGS
@@ -476,17 +485,14 @@ fn the_economic_tomato_model_prices_a_day_of_the_rules() {
         return;
     };
     let weather = import(&models, "greenlight-economic", &[]).join("weather.csv");
-    let spec = ghm::job::RunSpec {
-        model: Path::new(env!("CARGO_MANIFEST_DIR")).join("models/greenlight/tomato_economic.ghm"),
-        weather: ghm::job::WeatherSpec {
+    let season = rules_season(
+        "models/greenlight/tomato_economic.ghm",
+        ghm::job::WeatherSpec {
             weather: Some(weather),
             days: Some(1.0),
             ..ghm::job::WeatherSpec::default()
         },
-        plant: ghm::job::PlantSpec::NOMINAL,
-        controller: ghm::job::ControllerSpec::Rules,
-    };
-    let season = ghm::job::run_season_logs(&spec).unwrap_or_else(|e| panic!("{e}"));
+    );
     let m = &season.plant.model;
     let names: Vec<&str> = m.terms.iter().map(|t| t.info.name.as_str()).collect();
     assert_eq!(
