@@ -2,6 +2,8 @@
 //!
 //! * Jacobian: forward mode with vector duals of [`LANES`] lanes, one pass per chunk of
 //!   `LANES` chosen inputs (one pass for a plant with up to eight states and inputs).
+//!   A sparse Jacobian may instead seed groups of columns that share no row
+//!   ([`Derivatives::grouped`], [`super::ColumnGroups`]): one lane per group.
 //! * Hessian of a weighted sum of outputs `Σ wᵢ outᵢ`: forward-over-reverse. The forward
 //!   pass runs on vector duals, then one reverse (adjoint) sweep runs on the same duals;
 //!   the adjoint of input `i` carries the gradient in its real part and row `i` of the
@@ -12,11 +14,15 @@
 //! ([`super::activity`]): the adjoints of passive slots, and the zero lanes of a passive
 //! factor's partial.
 //!
+//! * The same along chosen directions `V` ([`Derivatives::hessian_along`]): `∇²(Σ wᵢ outᵢ) V`
+//!   in one forward-over-reverse pass per [`LANES`] directions, for a step whose
+//!   derivatives are wanted along a few directions of many inputs.
+//!
 //! All scratch space lives in [`Derivatives`], sized once: evaluation does not allocate.
 
 use super::activity::{active_args, is_active, ActiveArgs, FIRST_ONLY, SECOND_ONLY};
 use super::lanes::{Lanes, LANES};
-use super::{Op, Real, Tape, Workspace};
+use super::{ColumnGroups, Op, Real, Sparsity, Tape, Workspace};
 
 type Lane = Lanes<f64>;
 
@@ -43,6 +49,8 @@ pub struct Derivatives {
     ws: Workspace<Lane>,
     adjoint: Vec<Lane>,
     live: Vec<bool>,
+    /// For [`Derivatives::grouped`]: the Jacobian's pattern and its column groups.
+    grouped: Option<(Sparsity, ColumnGroups)>,
 }
 
 fn lane(d: &Lane, l: usize) -> f64 {
@@ -66,7 +74,40 @@ impl Derivatives {
             ws: tape.workspace::<Lane>(),
             adjoint: vec![Lane::from(0.0); tape.n_slots],
             live: vec![false; tape.n_slots],
+            grouped: None,
         }
+    }
+
+    /// Like [`Derivatives::new`], but [`Derivatives::jacobian`] seeds groups of columns
+    /// that share no row, one lane per group: as many forward passes as the pattern needs
+    /// groups (divided by [`LANES`]) instead of columns. The same Jacobian; worth it where
+    /// many columns each reach few outputs (the stage values of an implicit step).
+    ///
+    /// ```
+    /// use ghm::graph::{Derivatives, Graph, Op};
+    ///
+    /// // Ten independent outputs exp(x_i): one group, one pass.
+    /// let mut g = Graph::new();
+    /// let outs: Vec<_> = (0..10).map(|i| { let x = g.var(i); g.apply(Op::Exp, &[x]) }).collect();
+    /// let tape = g.compile(&outs, 10);
+    /// let wrt: Vec<usize> = (0..10).collect();
+    /// let x: Vec<f64> = (0..10).map(|i| 0.1 * i as f64).collect();
+    /// let dense = Derivatives::new(&tape, &wrt).jacobian(&tape, &x).clone();
+    /// let grouped = Derivatives::grouped(&tape, &wrt).jacobian(&tape, &x).clone();
+    /// assert_eq!(dense, grouped);
+    /// ```
+    pub fn grouped(tape: &Tape, wrt: &[usize]) -> Derivatives {
+        let pattern = Sparsity::of_jacobian(tape, wrt);
+        let groups = ColumnGroups::of(&pattern);
+        Derivatives {
+            grouped: Some((pattern, groups)),
+            ..Derivatives::new(tape, wrt)
+        }
+    }
+
+    /// The Jacobian's pattern, for derivatives made by [`Derivatives::grouped`].
+    pub fn pattern(&self) -> Option<&Sparsity> {
+        self.grouped.as_ref().map(|(pattern, _)| pattern)
     }
 
     /// The tape inputs differentiated against, in column order.
@@ -109,8 +150,113 @@ impl Derivatives {
 
     /// Values and Jacobian at `x`.
     pub fn jacobian(&mut self, tape: &Tape, x: &[f64]) -> &Evaluation {
+        if self.grouped.is_some() {
+            return self.jacobian_by_groups(tape, x);
+        }
         for chunk in 0..self.chunks() {
             self.forward(tape, x, chunk);
+        }
+        &self.result
+    }
+
+    /// [`Derivatives::jacobian`] with a lane per group of columns.
+    fn jacobian_by_groups(&mut self, tape: &Tape, x: &[f64]) -> &Evaluation {
+        let Some((pattern, groups)) = &self.grouped else {
+            unreachable!("called for grouped derivatives only");
+        };
+        let n = self.wrt.len();
+        self.result.jacobian.fill(0.0);
+        for chunk in 0..groups.n_groups().div_ceil(LANES).max(1) {
+            let lanes = chunk * LANES..(chunk + 1) * LANES;
+            for (d, &v) in self.inputs.iter_mut().zip(x) {
+                *d = Lane::from(v);
+            }
+            for (col, &i) in self.wrt.iter().enumerate() {
+                let g = groups.group_of(col);
+                if lanes.contains(&g) {
+                    self.inputs[i].eps.0[g - lanes.start] = 1.0;
+                }
+            }
+            self.ws.slots[..tape.n_inputs].copy_from_slice(&self.inputs);
+            tape.run(&mut self.ws);
+            for (row, &s) in tape.outputs.iter().enumerate() {
+                let d = &self.ws.slots[s as usize];
+                self.result.values[row] = d.re;
+                for &col in &pattern.jacobian[row] {
+                    let g = groups.group_of(col);
+                    if lanes.contains(&g) {
+                        self.result.jacobian[row * n + col] = lane(d, g - lanes.start);
+                    }
+                }
+            }
+        }
+        &self.result
+    }
+
+    /// Values, and the gradient and Hessian-times-`V` of `Σ weights[i] · output[i]` at `x`
+    /// along `k` directions: `directions` holds `V`, `n_wrt × k` column by column, and
+    /// `product` receives `∇²(Σ wᵢ outᵢ) V` in the same layout, `gradient` the gradient.
+    /// One forward-over-reverse pass per [`LANES`] directions, whatever the number of
+    /// inputs; the Jacobian in the result is not filled.
+    ///
+    /// ```
+    /// use ghm::graph::{Derivatives, Graph};
+    ///
+    /// // f = x² y: ∇²f = [[2y, 2x], [2x, 0]]; along v = (1, 1) at (1, 3): (8, 2).
+    /// let mut g = Graph::new();
+    /// let (x, y) = (g.var(0), g.var(1));
+    /// let x2 = g.power(x, 2.0);
+    /// let f = g.mul(x2, y);
+    /// let tape = g.compile(&[f], 2);
+    /// let mut d = Derivatives::new(&tape, &[0, 1]);
+    /// let (mut gradient, mut product) = ([0.0; 2], [0.0; 2]);
+    /// d.hessian_along(&tape, &[1.0, 3.0], &[1.0], &[1.0, 1.0], &mut gradient, &mut product);
+    /// assert_eq!(gradient, [6.0, 1.0]);
+    /// assert_eq!(product, [8.0, 2.0]);
+    /// ```
+    pub fn hessian_along(
+        &mut self,
+        tape: &Tape,
+        x: &[f64],
+        weights: &[f64],
+        directions: &[f64],
+        gradient: &mut [f64],
+        product: &mut [f64],
+    ) -> &Evaluation {
+        let n = self.wrt.len();
+        let k = directions.len() / n.max(1);
+        debug_assert_eq!(directions.len(), n * k);
+        debug_assert_eq!(product.len(), n * k);
+        for chunk in 0..k.div_ceil(LANES).max(1) {
+            let cols = chunk * LANES..((chunk + 1) * LANES).min(k);
+            for (d, &v) in self.inputs.iter_mut().zip(x) {
+                *d = Lane::from(v);
+            }
+            for (r, &i) in self.wrt.iter().enumerate() {
+                for (l, col) in cols.clone().enumerate() {
+                    self.inputs[i].eps.0[l] = directions[col * n + r];
+                }
+            }
+            self.ws.slots[..tape.n_inputs].copy_from_slice(&self.inputs);
+            tape.run(&mut self.ws);
+            for (row, &s) in tape.outputs.iter().enumerate() {
+                self.result.values[row] = self.ws.slots[s as usize].re;
+            }
+            reverse_sweep(
+                tape,
+                &self.active,
+                &self.ws,
+                weights,
+                &mut self.adjoint,
+                &mut self.live,
+            );
+            for (r, &i) in self.wrt.iter().enumerate() {
+                let a = &self.adjoint[i];
+                gradient[r] = a.re;
+                for (l, col) in cols.clone().enumerate() {
+                    product[col * n + r] = lane(a, l);
+                }
+            }
         }
         &self.result
     }

@@ -48,12 +48,14 @@
 //! ```
 
 mod activity;
+mod coloring;
 mod derivative;
 mod lanes;
 mod op;
 mod sparsity;
 mod tape;
 
+pub use coloring::ColumnGroups;
 pub use derivative::{gradient_f64, Derivatives, Evaluation};
 pub use lanes::{LaneVector, Lanes, LANES};
 pub use op::{Op, Real};

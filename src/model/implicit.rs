@@ -678,14 +678,34 @@ impl ImplicitStep {
 }
 
 /// Exact derivatives of an implicit step with respect to chosen base inputs.
+///
+/// `G_W` is block lower triangular, a block per sub-step (a sub-step's stage equations
+/// read its own stage values and the state the last one ended in), so `W_z` comes by
+/// block forward substitution over `s·n × s·n` blocks and the adjoint `μ` by backward
+/// substitution; the combined tape's Jacobian seeds groups of columns that share no row
+/// ([`Derivatives::grouped`]); and the Hessian of the Lagrangian is taken along the
+/// columns of `T = [I; W_z]` only ([`Derivatives::hessian_along`]), never over all of `W`.
 #[derive(Debug, Clone)]
 pub(crate) struct ImplicitDerivatives {
     n_wrt: usize,
     combined: Derivatives,
     ws: ImplicitWorkspace,
     weights: Vec<f64>,
+    /// Rows (and columns) of `G_W` per diagonal block: a sub-step's, or all of `W` where
+    /// the pattern is not block lower triangular.
+    block: usize,
+    /// `coupled[k][l]`: block `(k, l)` of `G_W` holds a structural non-zero (`l < k`).
+    coupled: Vec<Vec<bool>>,
+    /// `G_W`, `n_w × n_w`.
+    g_w: DMatrix<f64>,
+    /// `P_W`, `m × n_w`.
+    p_w: DMatrix<f64>,
     /// `W_z`, `n_w × n_wrt`.
     w_z: DMatrix<f64>,
+    /// `T = [I; W_z]`, column by column, and `∇²L T` in the same layout.
+    directions: Vec<f64>,
+    product: Vec<f64>,
+    gradient: Vec<f64>,
     result: Evaluation,
 }
 
@@ -696,13 +716,30 @@ impl ImplicitDerivatives {
             .copied()
             .chain(step.w_offset..step.w_offset + step.n_w)
             .collect();
-        let (m, n) = (step.n_outputs(), wrt.len());
+        let (m, n, nw) = (step.n_outputs(), wrt.len(), step.n_w);
+        let combined = Derivatives::grouped(&step.combined, &full);
+        let pattern = combined
+            .pattern()
+            .expect("grouped derivatives keep their pattern");
+        let (block, coupled) = block_structure(
+            &pattern.jacobian[m..],
+            n,
+            nw,
+            step.tableau.stages * step.layout.nx,
+        );
         ImplicitDerivatives {
             n_wrt: n,
-            combined: Derivatives::new(&step.combined, &full),
+            combined,
             ws: step.workspace_for(Purpose::Derivatives),
-            weights: vec![0.0; m + step.n_w],
-            w_z: DMatrix::zeros(step.n_w, n),
+            weights: vec![0.0; m + nw],
+            block,
+            coupled,
+            g_w: DMatrix::zeros(nw, nw),
+            p_w: DMatrix::zeros(m, nw),
+            w_z: DMatrix::zeros(nw, n),
+            directions: vec![0.0; (n + nw) * n],
+            product: vec![0.0; (n + nw) * n],
+            gradient: vec![0.0; n + nw],
             result: Evaluation {
                 values: vec![0.0; m],
                 jacobian: vec![0.0; m * n],
@@ -720,13 +757,9 @@ impl ImplicitDerivatives {
         &self.result
     }
 
-    /// Solves the step and forms `W_z` and `dP/dz`; returns `G_W`'s LU for the adjoint, or
-    /// `None` where the step or `G_W` failed.
-    fn first_order(
-        &mut self,
-        step: &ImplicitStep,
-        base: &[f64],
-    ) -> Option<(DMatrix<f64>, DMatrix<f64>)> {
+    /// Solves the step and forms `G_W`, `P_W`, `W_z` and `dP/dz`; `None` where the step or
+    /// a block of `G_W` failed.
+    fn first_order(&mut self, step: &ImplicitStep, base: &[f64]) -> Option<()> {
         if step.solve(&mut self.ws, base).is_err() {
             return None;
         }
@@ -735,21 +768,46 @@ impl ImplicitDerivatives {
         let nf = n + nw;
         let e = self.combined.jacobian(&step.combined, &self.ws.full_inputs);
         let at = |r: usize, c: usize| e.jacobian[r * nf + c];
-        let g_w = DMatrix::from_fn(nw, nw, |r, c| at(m + r, n + c));
-        let g_z = DMatrix::from_fn(nw, n, |r, c| at(m + r, c));
-        let p_w = DMatrix::from_fn(m, nw, |r, c| at(r, n + c));
+        self.g_w = DMatrix::from_fn(nw, nw, |r, c| at(m + r, n + c));
+        self.p_w = DMatrix::from_fn(m, nw, |r, c| at(r, n + c));
         let p_z = DMatrix::from_fn(m, n, at);
+        // G_W W_z = −G_z, block by block from the first sub-step.
+        let b = self.block;
+        let mut w_z = DMatrix::from_fn(nw, n, |r, c| -at(m + r, c));
+        for k in 0..nw / b {
+            let mut rhs = w_z.rows(k * b, b).clone_owned();
+            for l in (0..k).filter(|&l| self.coupled[k][l]) {
+                rhs -= self.g_w.view((k * b, l * b), (b, b)) * w_z.rows(l * b, b);
+            }
+            let lu = self.g_w.view((k * b, k * b), (b, b)).clone_owned().lu();
+            w_z.rows_mut(k * b, b).copy_from(&lu.solve(&rhs)?);
+        }
         self.result.values.copy_from_slice(&e.values[..m]);
-        let lu = g_w.clone().lu();
-        let w_z = lu.solve(&(-g_z))?;
-        let dp = p_z + &p_w * &w_z;
+        let dp = p_z + &self.p_w * &w_z;
         for r in 0..m {
             for c in 0..n {
                 self.result.jacobian[r * n + c] = dp[(r, c)];
             }
         }
         self.w_z = w_z;
-        Some((g_w, p_w))
+        Some(())
+    }
+
+    /// The adjoint `μ` of `G_Wᵀ μ = −P_Wᵀ λ`, block by block from the last sub-step.
+    fn adjoint(&self, lambda: &[f64]) -> Option<DVector<f64>> {
+        let b = self.block;
+        let blocks = self.g_w.nrows() / b;
+        let lambda = DVector::from_column_slice(lambda);
+        let mut mu = -(self.p_w.transpose() * lambda);
+        for k in (0..blocks).rev() {
+            let mut rhs = mu.rows(k * b, b).clone_owned();
+            for l in (k + 1..blocks).filter(|&l| self.coupled[l][k]) {
+                rhs -= self.g_w.view((l * b, k * b), (b, b)).transpose() * mu.rows(l * b, b);
+            }
+            let lu = self.g_w.view((k * b, k * b), (b, b)).transpose().lu();
+            mu.rows_mut(k * b, b).copy_from(&lu.solve(&rhs)?);
+        }
+        Some(mu)
     }
 
     /// Values and Jacobian of the step at the base point.
@@ -762,34 +820,36 @@ impl ImplicitDerivatives {
 
     /// Values, Jacobian, and the gradient and Hessian of `Σ weights[i] · output[i]`.
     pub fn hessian(&mut self, step: &ImplicitStep, base: &[f64], weights: &[f64]) -> &Evaluation {
-        let Some((g_w, p_w)) = self.first_order(step, base) else {
+        if self.first_order(step, base).is_none() {
             return self.fail();
-        };
+        }
         let (m, n, nw) = (step.n_outputs(), self.n_wrt, step.n_w);
         let nf = n + nw;
-        // The adjoint: G_Wᵀ μ = −P_Wᵀ λ.
-        let lambda = nalgebra::DVector::from_column_slice(&weights[..m]);
-        let Some(mu) = g_w.transpose().lu().solve(&(-(p_w.transpose() * &lambda))) else {
+        let Some(mu) = self.adjoint(&weights[..m]) else {
             return self.fail();
         };
         self.weights[..m].copy_from_slice(&weights[..m]);
         self.weights[m..].copy_from_slice(mu.as_slice());
-        let e = self
-            .combined
-            .hessian(&step.combined, &self.ws.full_inputs, &self.weights);
-        // T = [I; W_z]: Tᵀ ∇²L T and Tᵀ ∇L.
-        let t = {
-            let mut t = DMatrix::zeros(nf, n);
-            for c in 0..n {
-                t[(c, c)] = 1.0;
-            }
-            t.view_mut((n, 0), (nw, n)).copy_from(&self.w_z);
-            t
-        };
-        let h_full = DMatrix::from_row_slice(nf, nf, &e.hessian);
-        let g_full = nalgebra::DVector::from_column_slice(&e.gradient);
-        let h = t.transpose() * h_full * &t;
-        let g = t.transpose() * g_full;
+        // T = [I; W_z], column by column.
+        self.directions.fill(0.0);
+        for c in 0..n {
+            let column = &mut self.directions[c * nf..(c + 1) * nf];
+            column[c] = 1.0;
+            column[n..].copy_from_slice(self.w_z.column(c).as_slice());
+        }
+        self.combined.hessian_along(
+            &step.combined,
+            &self.ws.full_inputs,
+            &self.weights,
+            &self.directions,
+            &mut self.gradient,
+            &mut self.product,
+        );
+        // Tᵀ (∇²L T) and Tᵀ ∇L.
+        let lt = DMatrix::from_column_slice(nf, n, &self.product);
+        let h = lt.rows(0, n) + self.w_z.transpose() * lt.rows(n, nw);
+        let g = DVector::from_column_slice(&self.gradient[..n])
+            + self.w_z.transpose() * DVector::from_column_slice(&self.gradient[n..]);
         for r in 0..n {
             self.result.gradient[r] = g[r];
             for c in 0..n {
@@ -798,6 +858,37 @@ impl ImplicitDerivatives {
             }
         }
         &self.result
+    }
+}
+
+/// The block size of `G_W` and which blocks below the diagonal hold non-zeros, from the
+/// Jacobian pattern of the residual rows (`g_rows`, columns `n_wrt` on being `W`): blocks
+/// of `sub_block` (a sub-step's stage values) where nothing lies above the diagonal
+/// blocks, as the stage equations are built; one block of all `W` otherwise.
+fn block_structure(
+    g_rows: &[Vec<usize>],
+    n_wrt: usize,
+    n_w: usize,
+    sub_block: usize,
+) -> (usize, Vec<Vec<bool>>) {
+    let blocks = n_w / sub_block.max(1);
+    let mut coupled = vec![vec![false; blocks]; blocks];
+    let mut lower = sub_block > 0 && n_w % sub_block == 0;
+    if lower {
+        for (row, cols) in g_rows.iter().enumerate() {
+            for &c in cols.iter().filter(|&&c| c >= n_wrt) {
+                let (k, l) = (row / sub_block, (c - n_wrt) / sub_block);
+                lower &= l <= k;
+                if l < k {
+                    coupled[k][l] = true;
+                }
+            }
+        }
+    }
+    if lower {
+        (sub_block, coupled)
+    } else {
+        (n_w, vec![vec![false]])
     }
 }
 
