@@ -267,14 +267,35 @@ const READINGS: [(&str, &[&str]); 6] = [
     ("heating_power", &["hBoilPipe", "hBoilGroPipe"]),
 ];
 
-/// The readings whose mean over `steps` (`ours`, in [`READINGS`]' order) differs from
+/// The points the closed-loop means are taken over: every 300 s point of the `steps` but
+/// the instants the lamps switch on (midnight: GreenLight's `lampTimeOn` is 0 h).
+///
+/// There the rules' heating set point is not defined for an instant: the linear lamp
+/// switch (`smoothLamp`) is already on and lifts the set point to the day's, while the
+/// lamps themselves (`lampTimeOn < timeOfDay`) are not yet on and do not lower it by their
+/// heat correction, so the boiler's power, an algebraic function of the state, reads
+/// 300 W m⁻² at that instant and its usual few W m⁻² a moment later. Whether a sample
+/// taken at midnight lands on that instant is decided by the round-off of the integrated
+/// clock (`time_state`): GreenLight's own run reads it on 6 of the 10 midnights, ghm's on
+/// 3 with 4 sub-steps and on 8 with 64, and each reading moves the 10-day mean heating by
+/// 0.8 %. The heat delivered is unaffected (the instant has no width). Measured
+/// 2026-12-04 over the other 2 870 points: ghm's mean heating within 0.09 % of
+/// GreenLight's with 4, 16 or 64 sub-steps (12.358, 12.356, 12.357 against 12.367 W m⁻²),
+/// where over all 2 880 it moved from −2.3 % to +1.4 % with the sub-steps alone.
+fn compared_points(steps: usize) -> Vec<usize> {
+    const DAY_S: usize = 86_400;
+    const PERIOD_S: usize = 300;
+    (0..steps).filter(|k| (k * PERIOD_S) % DAY_S != 0).collect()
+}
+
+/// The readings whose mean over `points` (`ours`, in [`READINGS`]' order) differs from
 /// GreenLight's closed loop (`names`, `rows` of `rules.csv`) by more than their relative
 /// tolerance (`heating`: the heating power's, 1 % for the others); each gap is printed.
 fn means_off(
     ours: &[f64],
     names: &[String],
     rows: &[Vec<f64>],
-    steps: usize,
+    points: &[usize],
     heating: f64,
 ) -> Vec<&'static str> {
     let column = |name: &str| {
@@ -285,11 +306,11 @@ fn means_off(
     };
     let mut failed = Vec::new();
     for ((name, columns), mean) in READINGS.iter().zip(ours) {
-        let theirs: f64 = rows[..steps]
+        let theirs: f64 = points
             .iter()
-            .map(|r| columns.iter().map(|c| r[column(c)]).sum::<f64>())
+            .map(|&k| columns.iter().map(|c| rows[k][column(c)]).sum::<f64>())
             .sum::<f64>()
-            / steps as f64;
+            / points.len() as f64;
         let relative = (mean - theirs) / theirs.abs();
         eprintln!("{name}: mean ghm {mean:.6} GreenLight {theirs:.6} ({relative:+.2e})");
         let tolerance = if *name == "heating_power" {
@@ -306,12 +327,11 @@ fn means_off(
 
 /// GreenLight's rules inside the model (`--inputs none`), as GreenLight runs them: ten days
 /// of closed loop against GreenLight's own (`rules.csv`), by the means of what a grower
-/// reads, each within 1 % (issue 34's criterion 2). The heating power's mean is 2.3 % off
-/// and held to 3 % here, with the gap printed. It is not the weather's interpolation:
-/// GreenLight holding the weather per row as ghm does (`interpolation = "left"`) heats
-/// 0.76 % more, not less (13.090 against 12.992 W m⁻²). Left to measure: GreenLight's
-/// loose closed-loop tolerances (rtol 1e-6, atol 1e-3) on a boiler that switches within a
-/// band of tenths of a degree. Criterion 2 is open for it.
+/// reads over [`compared_points`], each within 1 % (issue 34's criterion 2, the heating
+/// included). Over all 2 880 points the heating's mean was 2.3 % off; that gap was the
+/// ten midnight samples [`compared_points`] explains, not the weather's interpolation
+/// (GreenLight holding the weather per row heats 0.76 % more) nor its tolerances
+/// (GreenLight itself at rtol 1e-8, atol 1e-6 moves by +2.0 %, through the same samples).
 #[test]
 fn closed_loop_with_greenlights_rules_matches_its_means() {
     let (Some(models), Some(reference)) = (greenlight_models(), reference()) else {
@@ -348,17 +368,20 @@ fn closed_loop_with_greenlights_rules_matches_its_means() {
     let mut ws = plant.workspace();
     let mut y = vec![0.0; m.outputs.len()];
     let mut out_step = ghm::model::StepOutcome::default();
+    let points = compared_points(steps);
     let mut ours = vec![0.0; READINGS.len()];
     for k in 0..steps {
         plant.outputs_into(&mut ws, &x, &[], weather.at(k), &p, &mut y);
-        for (sum, (name, _)) in ours.iter_mut().zip(&READINGS) {
-            *sum += y[output(name)] / steps as f64;
+        if points.binary_search(&k).is_ok() {
+            for (sum, (name, _)) in ours.iter_mut().zip(&READINGS) {
+                *sum += y[output(name)] / points.len() as f64;
+            }
         }
         plant.step_into(&mut ws, &x, &[], weather.at(k), &p, &mut out_step);
         x.clone_from(&out_step.next_state);
         assert!(x.iter().all(|v| v.is_finite()), "step {k}: {x:?}");
     }
-    let failed = means_off(&ours, &names, &rules, steps, 0.03);
+    let failed = means_off(&ours, &names, &rules, &points, 0.01);
     assert!(
         failed.is_empty(),
         "means outside their tolerance: {failed:?}"
@@ -405,14 +428,18 @@ fn the_rules_controller_holds_greenlights_rules_over_each_step() {
     );
     let m = &season.plant.model;
     let output = |name: &str| m.outputs.iter().position(|o| o.info.name == name).unwrap();
+    // Every point: the controller holds what it read at a midnight sample for 300 s, so
+    // those samples are part of its loop (on 3 of the 10 midnights the boiler fully open).
+    let points: Vec<usize> = (0..steps).collect();
     let ours: Vec<f64> = READINGS
         .iter()
         .map(|(name, _)| {
             let i = output(name);
-            season.logs.iter().map(|log| log.outputs[i]).sum::<f64>() / steps as f64
+            let sum: f64 = points.iter().map(|&k| season.logs[k].outputs[i]).sum();
+            sum / points.len() as f64
         })
         .collect();
-    let failed = means_off(&ours, &names, &rules, steps, 0.06);
+    let failed = means_off(&ours, &names, &rules, &points, 0.06);
     assert!(
         failed.is_empty(),
         "means outside their tolerance: {failed:?}"

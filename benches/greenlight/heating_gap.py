@@ -4,10 +4,12 @@ options, printing the mean heating power over the 2 880 points of 300 s that
 `tests/greenlight_openloop.rs` compares with ghm's (12.992 W m⁻² with GreenLight's defaults:
 weather interpolated linearly, BDF rtol 1e-6, atol 1e-3).
 
-Measured 2026-12-04: with the weather held per 300 s row (`interpolation = "left"`, as ghm
-holds it) GreenLight heats 13.090 W m⁻², 0.76 % more; so the weather's interpolation does
-not explain ghm's 2.3 % lower heating (12.693). The tight-tolerance variants take several
-minutes each on one core.
+Measured 2026-12-04 (mean heating over all 2 880 points, W m⁻²): GreenLight's defaults
+12.992; weather held per row 13.090; held, rtol 1e-8 atol 1e-6 13.355 (697 s of solve);
+linear, rtol 1e-8 atol 1e-6 13.175 (344 s). ghm: 12.693 (4 sub-steps), 12.988 (16),
+13.171 (64). The spread is ten samples at midnight where GreenLight's rules are not
+defined for an instant (docs/import.md); over the other 2 870 points ghm and GreenLight
+agree to 0.1 %. The tight-tolerance variants take several minutes each on one core.
 
 Usage: python benches/greenlight/heating_gap.py   (in a venv with greenlight==2.0.5)
 Only GreenLight's public class is called (through tests/greenlight/make_reference.py).
