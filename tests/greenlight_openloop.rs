@@ -11,7 +11,7 @@
 
 mod common;
 
-use ghm::model::Plant;
+use ghm::model::{Plant, StepDerivatives};
 use ghm::sim::weather::load_csv;
 use std::collections::BTreeMap;
 use std::io::Write;
@@ -229,7 +229,7 @@ fn state_jacobian_error(plant: &Plant, points: &[Vec<f64>]) -> f64 {
     let l = plant.layout;
     let wrt: Vec<usize> = (0..l.nx + l.nu).collect();
     let n = wrt.len();
-    let mut der = ghm::model::StepDerivatives::new(plant, &wrt);
+    let mut der = StepDerivatives::new(plant, &wrt);
     let mut worst = 0.0f64;
     for z in points {
         let exact = der.jacobian(plant, z).jacobian.clone();
@@ -533,4 +533,139 @@ fn the_economic_tomato_model_prices_a_day_of_the_rules() {
     assert!(totals.iter().all(|t| t.is_finite()), "{totals:?}");
     assert!(totals[0] > 0.0, "the crop gains value: {totals:?}");
     assert!(totals[1..].iter().all(|t| *t < 0.0), "costs: {totals:?}");
+}
+
+/// The shipped model with its `sample` line's integrator and sub-steps replaced.
+fn shipped_with(integrator: &str) -> Plant {
+    let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/greenlight/katzin_2021.ghm");
+    let text = std::fs::read_to_string(&shipped).unwrap();
+    let sample = "sample 300 [s] integrator radau5 substeps 4";
+    assert!(
+        text.contains(sample),
+        "the shipped model's sample line moved"
+    );
+    let text = text.replace(sample, &format!("sample 300 [s] integrator {integrator}"));
+    Plant::new(
+        ghm::lang::load_str("katzin_2021.ghm", &text).unwrap_or_else(|e| panic!("{}", e.render())),
+    )
+}
+
+/// The largest differences between two plants' step derivatives wrt `(x, u)` at `points`:
+/// Jacobian entries relative to the largest of their row in `b`, Hessian entries of
+/// `Σ weights · outputs` relative to the largest of `b`'s.
+fn derivative_gap(a: &Plant, b: &Plant, points: &[Vec<f64>], weights: &[f64]) -> (f64, f64) {
+    let l = a.layout;
+    let wrt: Vec<usize> = (0..l.nx + l.nu).collect();
+    let n = wrt.len();
+    let (mut da, mut db) = (StepDerivatives::new(a, &wrt), StepDerivatives::new(b, &wrt));
+    let largest = |v: &[f64]| v.iter().fold(1e-300f64, |m, x| m.max(x.abs()));
+    let (mut jacobian, mut hessian) = (0.0f64, 0.0f64);
+    for z in points {
+        let ea = da.hessian(a, z, weights).clone();
+        let eb = db.hessian(b, z, weights);
+        for (ra, rb) in ea.jacobian.chunks(n).zip(eb.jacobian.chunks(n)) {
+            let scale = largest(rb);
+            for (x, y) in ra.iter().zip(rb) {
+                jacobian = jacobian.max((x - y).abs() / scale);
+            }
+        }
+        let scale = largest(&eb.hessian);
+        for (x, y) in ea.hessian.iter().zip(&eb.hessian) {
+            hessian = hessian.max((x - y).abs() / scale);
+        }
+    }
+    (jacobian, hessian)
+}
+
+/// Issue 34's criterion 4 on the shipped model along a simulated day (the rules
+/// controller on the Bleiswijk weather): every step's exact Jacobian wrt `(x, u)` and
+/// Hessian of `λᵀ(x⁺, y)` finite, and at a point every three hours both against the same
+/// step unrolled as RK4 with 300 sub-steps of 1 s and differentiated exactly (RK4 is
+/// stable below 4.2 s here).
+///
+/// The criterion asked for 1e-6 against the fine RK4; that cannot hold at 75 s sub-steps,
+/// because what separates the two is `radau5`'s own integration error in the derivatives.
+/// Measured 2026-12-04 (a point every three hours): the Jacobian 3.0e-3 of its row and
+/// the Hessian 2.4e-3 of its largest entry with the shipped 4 sub-steps; with 16, the
+/// Jacobian 3.7e-4 (the state values 5.8e-6 and 4.8e-8 of their size at one point), the
+/// Hessian 1.8e-3. The Jacobian's largest gaps are in the column of the roof vents
+/// (`uRoof`, whose flux grows with the square root of the opening) at openings near 0;
+/// where the Hessian's are, and why they shrink so little, is not measured yet. That the implicit function theorem gives the derivatives
+/// of the step actually taken is checked against central differences of that step in
+/// `open_loop_matches_greenlight_point_by_point`; here the Jacobian's gap must be radau5's
+/// (at least four times smaller with 16 sub-steps), and both gaps below 1e-2.
+#[test]
+fn the_step_derivatives_are_finite_and_near_a_fine_rk4_on_a_season() {
+    let (Some(models), Some(_)) = (greenlight_models(), reference()) else {
+        let _ = writeln!(
+            std::io::stderr(),
+            "skipped: needs GreenLight's model files for the Bleiswijk weather \
+             (GHM_GREENLIGHT_MODELS, GHM_GREENLIGHT_REFERENCE); .ci/run provides both"
+        );
+        return;
+    };
+    let weather = import(&models, "greenlight-derivatives", &[]).join("weather.csv");
+    let steps = 288;
+    let season = rules_season(
+        "models/greenlight/katzin_2021.ghm",
+        ghm::job::WeatherSpec {
+            weather: Some(weather),
+            steps: Some(steps),
+            ..ghm::job::WeatherSpec::default()
+        },
+    );
+    let plant = &season.plant;
+    let p = plant.model.nominal_params();
+    let points: Vec<Vec<f64>> = season
+        .logs
+        .iter()
+        .map(|log| {
+            let mut z = log.state.clone();
+            z.extend(&log.input);
+            z.extend(&log.disturbance);
+            z.extend(&p);
+            z
+        })
+        .collect();
+    let l = plant.layout;
+    let wrt: Vec<usize> = (0..l.nx + l.nu).collect();
+    let weights: Vec<f64> = (0..plant.n_step_outputs())
+        .map(|i| 1.0 + 0.1 * i as f64)
+        .collect();
+    let mut exact = StepDerivatives::new(plant, &wrt);
+    // From the first step on: at the initial state several temperatures are equal and
+    // GreenLight's `abs(Δt)^0.33` convection has no derivative there (`ghm check`'s W002).
+    let not_finite: Vec<usize> = (1..steps)
+        .filter(|&k| {
+            let e = exact.hessian(plant, &points[k], &weights);
+            !e.jacobian.iter().chain(&e.hessian).all(|v| v.is_finite())
+        })
+        .collect();
+    assert!(
+        not_finite.is_empty(),
+        "derivatives not finite at steps {not_finite:?}"
+    );
+    let every_three_hours: Vec<Vec<f64>> = points.iter().skip(36).step_by(36).cloned().collect();
+    let rk4 = shipped_with("rk4 substeps 300");
+    let (jacobian, hessian) = derivative_gap(plant, &rk4, &every_three_hours, &weights);
+    let (jacobian_16, hessian_16) = derivative_gap(
+        &shipped_with("radau5 substeps 16"),
+        &rk4,
+        &every_three_hours,
+        &weights,
+    );
+    eprintln!(
+        "radau5 against RK4 at 1 s, {} points: Jacobian {jacobian:.2e} of its row, Hessian \
+         {hessian:.2e} of its largest entry (4 sub-steps); {jacobian_16:.2e}, {hessian_16:.2e} \
+         (16 sub-steps)",
+        every_three_hours.len()
+    );
+    assert!(
+        jacobian < 1e-2 && hessian < 1e-2,
+        "{jacobian:e} {hessian:e}"
+    );
+    assert!(
+        jacobian_16 < jacobian / 4.0,
+        "{jacobian_16:e} against {jacobian:e}"
+    );
 }
