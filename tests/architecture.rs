@@ -1,8 +1,8 @@
 //! The code map of `docs/architecture.md` against the code: each top-level module's row
 //! lists, in its "may use" column, exactly the top-level modules its sources name as
 //! `crate::<module>` (in code, not in comments or strings: a doc link is no dependency), and
-//! the top-level modules form no cycle. The `ghm-python` row lists exactly the modules
-//! `python/src` names as `ghm::<module>`.
+//! the top-level modules form no cycle, nor do the files. The `ghm-python` row lists
+//! exactly the modules `python/src` names as `ghm::<module>`.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -387,6 +387,138 @@ fn top_level_modules_form_no_cycle() {
     }
 }
 
+/// The module path of a file under `src/` (`lang/check/mod.rs` → `lang::check`).
+fn module_path(src: &Path, file: &Path) -> Vec<String> {
+    let rel = file.strip_prefix(src).unwrap();
+    let mut segments: Vec<String> = rel
+        .iter()
+        .map(|s| s.to_str().unwrap().to_string())
+        .collect();
+    let last = segments.pop().unwrap();
+    if last != "mod.rs" {
+        segments.push(last.trim_end_matches(".rs").to_string());
+    }
+    segments
+}
+
+/// Every path a piece of code names from the crate's root or relative to `module`
+/// (`crate::a::B`, `super::c::D`, one level of `{…}` groups), as module segments.
+fn named_paths(code: &str, module: &[String]) -> Vec<Vec<String>> {
+    let ident = |c: char| c.is_alphanumeric() || c == '_';
+    let mut paths = Vec::new();
+    for line in code.lines() {
+        for (at, _) in line.match_indices("::") {
+            // The start of the path this `::` belongs to.
+            let start = line[..at]
+                .rfind(|c: char| !(ident(c) || c == ':'))
+                .map_or(0, |i| i + 1);
+            if line[start..at].contains("::") {
+                continue; // not the path's first `::`
+            }
+            let mut base: Vec<String> = match &line[start..at] {
+                "crate" => Vec::new(),
+                "super" => module.to_vec(),
+                _ => continue,
+            };
+            let mut rest = &line[at + 2..];
+            if line[start..at] == *"super" {
+                base.pop();
+                while let Some(r) = rest.strip_prefix("super::") {
+                    base.pop();
+                    rest = r;
+                }
+            }
+            // `a::b::{c, d::e}`: the segments before a group, then each of its items.
+            let head_end = rest
+                .find(|c: char| !(ident(c) || c == ':'))
+                .unwrap_or(rest.len());
+            let (head, after) = rest.split_at(head_end);
+            let tails: Vec<&str> = match after.strip_prefix('{') {
+                Some(group) if head.is_empty() || head.ends_with("::") => {
+                    let end = group.find('}').unwrap_or(group.len());
+                    group[..end].split(',').collect()
+                }
+                _ => vec![""],
+            };
+            for tail in tails {
+                let tail = tail.trim();
+                let end = tail
+                    .find(|c: char| !(ident(c) || c == ':'))
+                    .unwrap_or(tail.len());
+                let mut path = base.clone();
+                path.extend(
+                    head.split("::")
+                        .chain(tail[..end].split("::"))
+                        .filter(|s| !s.is_empty())
+                        .map(str::to_string),
+                );
+                paths.push(path);
+            }
+        }
+    }
+    paths
+}
+
+/// The file a module path leads into: the longest prefix that is `src/<p>.rs` or
+/// `src/<p>/mod.rs`.
+fn file_of(src: &Path, path: &[String]) -> Option<PathBuf> {
+    (1..=path.len()).rev().find_map(|n| {
+        let p = path[..n].join("/");
+        [src.join(format!("{p}.rs")), src.join(&p).join("mod.rs")]
+            .into_iter()
+            .find(|f| f.is_file())
+    })
+}
+
+/// Which files of `src/` each file imports, by the paths its code names; a `mod.rs` naming
+/// files under its own folder is the module's face, not an import.
+fn file_edges(src: &Path) -> Edges {
+    let mut edges = Edges::new();
+    for module in top_level_modules(src) {
+        for file in module_files(src, &module) {
+            let here = module_path(src, &file);
+            let code = code_only(&std::fs::read_to_string(&file).unwrap());
+            // A file's own tests (`#[cfg(test)] mod tests`, at its end) are not its imports.
+            let code = code
+                .find("#[cfg(test)]\nmod ")
+                .map_or(&code[..], |i| &code[..i]);
+            let folder = file.parent().unwrap().to_path_buf();
+            let is_face = file.ends_with("mod.rs");
+            let name = |f: &Path| f.strip_prefix(src).unwrap().display().to_string();
+            let uses = edges.entry(name(&file)).or_default();
+            for path in named_paths(code, &here) {
+                if let Some(target) = file_of(src, &path) {
+                    if target != file && !(is_face && target.starts_with(&folder)) {
+                        uses.insert(name(&target));
+                    }
+                }
+            }
+        }
+    }
+    edges
+}
+
+#[test]
+fn files_form_no_cycle() {
+    let src = root().join("src");
+    let edges = file_edges(&src);
+    assert!(
+        edges["lang/load.rs"].contains("lang/check/mod.rs"),
+        "the scan sees `use crate::lang::check::check`: {:?}",
+        edges["lang/load.rs"]
+    );
+    assert!(
+        edges["study/report.rs"].contains("study/markdown.rs"),
+        "the scan sees `use crate::study::markdown::model_section`"
+    );
+    if let Some(cycle) = find_cycle(&edges) {
+        panic!(
+            "these files import each other in a cycle: {}",
+            cycle.join(" → ")
+        );
+    }
+}
+
 #[test]
 fn the_checks_themselves_can_fail() {
     let modules: BTreeSet<String> = ["a", "b", "c"].iter().map(|s| s.to_string()).collect();
@@ -419,6 +551,19 @@ fn the_checks_themselves_can_fail() {
     assert_eq!(
         find_cycle(&edge(&[("a", "b"), ("b", "c"), ("c", "a")])).unwrap(),
         ["a", "b", "c", "a"]
+    );
+    let here: Vec<String> = ["study", "report"].iter().map(|s| s.to_string()).collect();
+    let named = named_paths(
+        "use super::table::{spread, TableLine};\nlet x = crate::lang::load(p);\nfoo::bar();\n",
+        &here,
+    );
+    assert_eq!(
+        named,
+        [
+            vec!["study", "table", "spread"],
+            vec!["study", "table", "TableLine"],
+            vec!["lang", "load"],
+        ]
     );
 }
 

@@ -1,88 +1,16 @@
 //! Loading a model: reading the main file and, in place of each `import`, the files it
-//! imports; the entry points [`load`] and [`load_str`], and the [`CheckFailure`] they give
-//! for a model with errors.
+//! imports; the entry points [`load`] and [`load_str`], which give a [`CheckFailure`] for
+//! a model with errors.
 
 use crate::lang::ast::*;
 use crate::lang::check::check;
-use crate::lang::diagnostic::Diagnostic;
+use crate::lang::diagnostic::{CheckFailure, Diagnostic};
 use crate::lang::model::Model;
 use crate::lang::parse::parse;
 use crate::lang::source::{SourceFile, SourceMap, Span};
 use crate::lang::text::{decode, Decoded};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-
-/// Why a model could not be loaded: the diagnostics (errors and warnings) and the sources
-/// they point into.
-///
-/// # Examples
-///
-/// A misspelt name is an error with a code, a `file:line:column`, the source line with a
-/// caret under the name, and a hint:
-///
-/// ```
-/// use ghm::lang::diagnostic::Severity;
-///
-/// let text = "\
-/// sample 30 [min]
-/// state temp_air [°C] = 15
-/// input heating [W m^-2] in [0, 150]
-/// der temp_air = (heatng - 6.1 * temp_air) / 3e4
-/// ";
-/// let failure = ghm::lang::load_str("bad.ghm", text).unwrap_err();
-/// assert_eq!(failure.error_count(), 1);
-/// let error = &failure.diagnostics[0];
-/// assert_eq!((error.severity, error.code), (Severity::Error, "E003"));
-/// assert_eq!(failure.sources.location(error.span), "bad.ghm:4:17");
-///
-/// let message = failure.render();
-/// assert!(message.starts_with("error[E003]: unknown name `heatng`"));
-/// assert!(message.contains("┌─ bad.ghm:4:17"));
-/// assert!(message.contains("help: did you mean `heating`?"));
-/// // The unused input is reported too, as a warning.
-/// assert!(message.contains("warning[W001]: input `heating` is never used"));
-/// // As an error (`?` into `Box<dyn Error>`), it shows the same text, Debug included.
-/// assert_eq!(failure.to_string(), message.trim_end());
-/// assert_eq!(format!("{failure:?}"), failure.to_string());
-/// ```
-#[derive(Clone)]
-pub struct CheckFailure {
-    /// The files read (the main file and its imports), which the spans point into.
-    pub sources: SourceMap,
-    /// Every error and warning found: those of parsing and imports first, then those of
-    /// checking.
-    pub diagnostics: Vec<Diagnostic>,
-}
-
-/// Displays as [`CheckFailure::render`], so that `?` carries the full message into any
-/// `Box<dyn Error>`.
-impl std::fmt::Display for CheckFailure {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.render().trim_end())
-    }
-}
-
-/// Debug shows the rendered diagnostics too: `main` returning `Result<(), Box<dyn Error>>`
-/// prints an error with `{:?}`, and a user should see `file:line:column`, not the fields.
-impl std::fmt::Debug for CheckFailure {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        std::fmt::Display::fmt(self, f)
-    }
-}
-
-impl std::error::Error for CheckFailure {}
-
-impl CheckFailure {
-    /// The diagnostics rendered as text with `file:line:col`, source lines and carets.
-    pub fn render(&self) -> String {
-        crate::lang::diagnostic::render(&self.sources, &self.diagnostics)
-    }
-
-    /// The number of errors (warnings are not counted).
-    pub fn error_count(&self) -> usize {
-        self.diagnostics.iter().filter(|d| d.is_error()).count()
-    }
-}
 
 /// Loads and checks the model in `path` (with its imports).
 ///

@@ -11,5 +11,6 @@ pub mod parse;
 pub mod source;
 pub mod text;
 
-pub use load::{load, load_files, load_str, CheckFailure};
+pub use diagnostic::CheckFailure;
+pub use load::{load, load_files, load_str};
 pub use model::Model;

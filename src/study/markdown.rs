@@ -11,7 +11,7 @@
 //! report's folder as the document's links see it), so that the prose around the tables
 //! stays as written and the tables are regenerated with the figures.
 
-use super::report::{spread, TableLine};
+use super::table::{spread, TableLine};
 use crate::job::output::figure;
 
 /// A model's section: `images` is the path from the document to the report's folder

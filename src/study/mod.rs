@@ -13,6 +13,7 @@ pub mod markdown;
 pub mod plan;
 pub mod report;
 pub mod run;
+mod table;
 
 pub use markdown::splice;
 pub use plan::{plan, Job};

@@ -11,6 +11,7 @@ use crate::report::atomic;
 use crate::report::plot::{draw_png, draw_svg, Figure, Line, Panel, Spread};
 use crate::report::table::csv_text;
 use crate::study::markdown::model_section;
+use crate::study::table::{spread, TableLine};
 use crate::study::StudyError;
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
@@ -154,21 +155,6 @@ pub fn gather(dirs: &[PathBuf]) -> Result<Vec<JobRow>, StudyError> {
     Ok(rows)
 }
 
-/// One line of a model's table: a controller at a horizon.
-#[derive(Debug, Clone)]
-pub(super) struct TableLine {
-    pub(super) controller: String,
-    pub(super) horizon: String,
-    pub(super) horizon_h: Option<f64>,
-    /// (EPI, cumulative reward) of the nominal season.
-    pub(super) nominal: Option<(f64, f64)>,
-    /// (EPI, cumulative reward) of each stochastic season.
-    pub(super) stochastic: Vec<(f64, f64)>,
-    pub(super) failed_solves: u64,
-    pub(super) median_ms: f64,
-    pub(super) max_ms: f64,
-}
-
 /// The table lines of one model, in the order the rows first name them.
 fn table(rows: &[&JobRow]) -> Vec<TableLine> {
     let mut lines: Vec<TableLine> = Vec::new();
@@ -215,18 +201,6 @@ fn table(rows: &[&JobRow]) -> Vec<TableLine> {
         }
     }
     lines
-}
-
-/// Mean, minimum and maximum.
-pub(super) fn spread(values: impl Iterator<Item = f64>) -> Option<(f64, f64, f64)> {
-    let v: Vec<f64> = values.collect();
-    if v.is_empty() {
-        return None;
-    }
-    let mean = v.iter().sum::<f64>() / v.len() as f64;
-    let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    Some((mean, lo, hi))
 }
 
 /// What `ghm report` wrote.
