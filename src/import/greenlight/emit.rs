@@ -9,7 +9,7 @@
 //! | `aux` | `let` (the description as a comment) |
 //! | `input` | `disturbance x [unit] column "x" value default` (a default that is not constant, as van Henten's control rules: `let`) |
 //! | a variable whose name is a weather column (Katzin 2021: the const `hElevation`) | `disturbance` |
-//! | a control named in `inputs` | `input x [unit] in [0, 1] "description"` (unbounded unless its unit is `-`) with `rule definition`, GreenLight's rule, on the next line |
+//! | a control named in `inputs` | `input x [unit] in [0, 1] start 0.5 "description"` (unbounded, start 0, unless its unit is `-`) with `rule definition`, GreenLight's rule, on the next line |
 //! | `function` | `fn`, except GreenLight's `ifElse`, `min` and `max` (recognised by their bodies) |
 //! | `time` | nothing (a comment): GreenLight's time axis, no variable |
 //! | the readings a grower looks at (`READINGS`: air temperature, humidity, CO₂, heating and lamp power, fruit dry matter, harvest), where the model has their variables | `output air_temperature [°C] = tAir …` (added, so that a season's plot shows the climate and the crop) |
@@ -43,7 +43,7 @@ use std::path::PathBuf;
 pub struct EmitOptions {
     /// The `model` name.
     pub model_name: String,
-    /// Controls written as `input … in [0, 1]` with their rule as an output.
+    /// Controls written as `input … in [0, 1] start 0.5` with their rule.
     pub inputs: Vec<String>,
     /// The weather file's columns (other than `Time`): variables of these names become
     /// disturbances.
@@ -835,8 +835,13 @@ pub fn emit(model: &Resolved, opts: &EmitOptions) -> Result<Emitted, ImportError
                     counts.inputs += 1;
                     // A GreenLight control with unit `-` is a fraction 0–1 (all of Katzin
                     // 2021's); for any other unit GreenLight states no range.
+                    // It starts from the middle of that range: GreenLight's controls are
+                    // rules with no value before the first step, and an optimiser's first
+                    // plan holds the start input (on the economic tomato problem a plan
+                    // from the range's bounds took 114–134 interior-point iterations, from
+                    // its middle 26).
                     if unit(v) == Ok(Some("-".to_string())) {
-                        let _ = writeln!(out, "input {name}{unit_text} in [0, 1]{desc}");
+                        let _ = writeln!(out, "input {name}{unit_text} in [0, 1] start 0.5{desc}");
                     } else {
                         out.push_str(
                             "# no bounds: GreenLight gives none for a control with a unit\n",

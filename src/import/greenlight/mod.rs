@@ -391,7 +391,9 @@ mod tests {
             "{t}"
         );
         assert!(
-            t.contains("input heat [-] in [0, 1]\n    rule max(0, 20 - temp) * airDens\n"),
+            t.contains(
+                "input heat [-] in [0, 1] start 0.5\n    rule max(0, 20 - temp) * airDens\n"
+            ),
             "{t}"
         );
         assert!(t.contains("# Time: GreenLight's time axis"), "{t}");
