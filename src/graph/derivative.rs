@@ -148,6 +148,18 @@ impl Derivatives {
         cols
     }
 
+    /// The adjoints of `Σ weights[i] · output[i]` over the lanes the last forward run left.
+    fn reverse(&mut self, tape: &Tape, weights: &[f64]) {
+        reverse_sweep(
+            tape,
+            &self.active,
+            &self.ws,
+            weights,
+            &mut self.adjoint,
+            &mut self.live,
+        );
+    }
+
     /// Values and Jacobian at `x`.
     pub fn jacobian(&mut self, tape: &Tape, x: &[f64]) -> &Evaluation {
         if self.grouped.is_some() {
@@ -242,14 +254,7 @@ impl Derivatives {
             for (row, &s) in tape.outputs.iter().enumerate() {
                 self.result.values[row] = self.ws.slots[s as usize].re;
             }
-            reverse_sweep(
-                tape,
-                &self.active,
-                &self.ws,
-                weights,
-                &mut self.adjoint,
-                &mut self.live,
-            );
+            self.reverse(tape, weights);
             for (r, &i) in self.wrt.iter().enumerate() {
                 let a = &self.adjoint[i];
                 gradient[r] = a.re;
@@ -267,14 +272,7 @@ impl Derivatives {
         let n = self.wrt.len();
         for chunk in 0..self.chunks() {
             let cols = self.forward(tape, x, chunk);
-            reverse_sweep(
-                tape,
-                &self.active,
-                &self.ws,
-                weights,
-                &mut self.adjoint,
-                &mut self.live,
-            );
+            self.reverse(tape, weights);
             for (k, &i) in self.wrt.iter().enumerate() {
                 let a = &self.adjoint[i];
                 self.result.gradient[k] = a.re;
