@@ -45,6 +45,20 @@ fn reference() -> Option<PathBuf> {
     path.join("openloop.csv").is_file().then_some(path)
 }
 
+/// GreenLight's model folder and the reference output, or `None` after saying on standard
+/// error that the test skipped and why (`.ci/run` provides both).
+fn models_and_reference() -> Option<(PathBuf, PathBuf)> {
+    let found = greenlight_models().zip(reference());
+    if found.is_none() {
+        let _ = writeln!(
+            std::io::stderr(),
+            "skipped: needs GreenLight's model files and its reference output \
+             (GHM_GREENLIGHT_MODELS, GHM_GREENLIGHT_REFERENCE); .ci/run provides both"
+        );
+    }
+    found
+}
+
 /// `ghm import greenlight` of Katzin 2021 with its weather into a fresh folder.
 fn import(models: &Path, folder: &str, extra: &[&str]) -> PathBuf {
     let out = common::bin::temp_dir(folder);
@@ -334,12 +348,7 @@ fn means_off(
 /// (GreenLight itself at rtol 1e-8, atol 1e-6 moves by +2.0 %, through the same samples).
 #[test]
 fn closed_loop_with_greenlights_rules_matches_its_means() {
-    let (Some(models), Some(reference)) = (greenlight_models(), reference()) else {
-        let _ = writeln!(
-            std::io::stderr(),
-            "skipped: needs GreenLight's model files and its reference output \
-             (GHM_GREENLIGHT_MODELS, GHM_GREENLIGHT_REFERENCE); .ci/run provides both"
-        );
+    let Some((models, reference)) = models_and_reference() else {
         return;
     };
     let out = import(&models, "greenlight-rules", &["--inputs", "none"]);
@@ -407,12 +416,7 @@ fn rules_season(model: &str, weather: ghm::job::WeatherSpec) -> ghm::job::Season
 /// which the 300 s hold of the boiler's valve raises (measured +4.7 %), within 6 %.
 #[test]
 fn the_rules_controller_holds_greenlights_rules_over_each_step() {
-    let (Some(models), Some(reference)) = (greenlight_models(), reference()) else {
-        let _ = writeln!(
-            std::io::stderr(),
-            "skipped: needs GreenLight's model files and its reference output \
-             (GHM_GREENLIGHT_MODELS, GHM_GREENLIGHT_REFERENCE); .ci/run provides both"
-        );
+    let Some((models, reference)) = models_and_reference() else {
         return;
     };
     let weather = import(&models, "greenlight-rules-controller", &[]).join("weather.csv");
@@ -452,12 +456,7 @@ fn the_rules_controller_holds_greenlights_rules_over_each_step() {
 /// `docs/benchmarks.md`, not here).
 #[test]
 fn the_rl_environment_runs_the_imported_model() {
-    let (Some(models), Some(_)) = (greenlight_models(), reference()) else {
-        let _ = writeln!(
-            std::io::stderr(),
-            "skipped: needs GreenLight's model files and its reference output \
-             (GHM_GREENLIGHT_MODELS, GHM_GREENLIGHT_REFERENCE); .ci/run provides both"
-        );
+    let Some((models, _)) = models_and_reference() else {
         return;
     };
     let out = import(&models, "greenlight-env", &[]);
@@ -590,18 +589,14 @@ fn derivative_gap(a: &Plant, b: &Plant, points: &[Vec<f64>], weights: &[f64]) ->
 /// Jacobian 3.7e-4 (the state values 5.8e-6 and 4.8e-8 of their size at one point), the
 /// Hessian 1.8e-3. The Jacobian's largest gaps are in the column of the roof vents
 /// (`uRoof`, whose flux grows with the square root of the opening) at openings near 0;
-/// where the Hessian's are, and why they shrink so little, is not measured yet. That the implicit function theorem gives the derivatives
-/// of the step actually taken is checked against central differences of that step in
+/// where the Hessian's are, and why they shrink so little, is not measured yet. That the
+/// implicit function theorem gives the derivatives of the step actually taken is checked
+/// against central differences of that step in
 /// `open_loop_matches_greenlight_point_by_point`; here the Jacobian's gap must be radau5's
 /// (at least four times smaller with 16 sub-steps), and both gaps below 1e-2.
 #[test]
 fn the_step_derivatives_are_finite_and_near_a_fine_rk4_on_a_season() {
-    let (Some(models), Some(_)) = (greenlight_models(), reference()) else {
-        let _ = writeln!(
-            std::io::stderr(),
-            "skipped: needs GreenLight's model files for the Bleiswijk weather \
-             (GHM_GREENLIGHT_MODELS, GHM_GREENLIGHT_REFERENCE); .ci/run provides both"
-        );
+    let Some((models, _)) = models_and_reference() else {
         return;
     };
     let weather = import(&models, "greenlight-derivatives", &[]).join("weather.csv");
