@@ -3,7 +3,8 @@
 //! A plant and its economic cost come from a `.ghm` file ([`lang::load()`]) or from Rust
 //! ([`model::ModelBuilder`]); [`model::Plant`] compiles them into tapes with exact
 //! derivatives; a [`control::Controller`] — [`control::Mpc`] over an [`nlp::Ocp`] solved by
-//! [`solve::Sqp`] (or IPOPT, feature `ipopt`), or your own type — chooses the inputs; and
+//! [`solve::Ipm`] (the interior point, `ghm mpc`'s default), [`solve::Sqp`] or IPOPT
+//! (feature `ipopt`), or your own type — chooses the inputs; and
 //! [`sim::season::run_season`] runs it over a weather source and reports the metrics.
 //!
 //! ```
