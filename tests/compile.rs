@@ -1,9 +1,14 @@
 //! `ghm compile`: the header is cbindgen's output of the C ABI; a controller compiled into
 //! a static library, linked into the C example with the system C compiler, runs a day of
-//! the lettuce season with the same inputs, to the last bit, as the command it stands for;
-//! bad arguments get clear messages.
+//! the lettuce season (and the first steps of the GreenLight tomato's economic MPC) with
+//! the same inputs, to the last bit, as the command it stands for; bad arguments get clear
+//! messages.
 //!
 //! Needs `cbindgen` (Debian: cbindgen) and a C compiler (`cc`); `.ci/run` installs them.
+//! The GreenLight case needs GreenLight's files (`tests/common/greenlight.rs`) and says
+//! that it skipped without them.
+
+mod common;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -76,14 +81,15 @@ fn builtin_weather_csv(path: &Path, steps: usize, extra: usize) {
     std::fs::write(path, text).unwrap();
 }
 
-/// The input columns of a CSV (named `u_*`), as bit patterns, row by row.
-fn input_bits(csv: &str) -> Vec<Vec<u64>> {
+/// The input columns of a CSV (named `u_*`, `inputs` of them), as bit patterns, row by
+/// row.
+fn input_bits(csv: &str, inputs: usize) -> Vec<Vec<u64>> {
     let mut lines = csv.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
     let columns: Vec<usize> = (0..header.len())
         .filter(|&i| header[i].starts_with("u_"))
         .collect();
-    assert_eq!(columns.len(), 3, "{header:?}");
+    assert_eq!(columns.len(), inputs, "{header:?}");
     lines
         .map(|line| {
             let fields: Vec<&str> = line.split(',').collect();
@@ -95,14 +101,31 @@ fn input_bits(csv: &str) -> Vec<Vec<u64>> {
         .collect()
 }
 
-/// Compiles the controller of `controller_args`, links the C example against it, runs a
-/// day, and checks its inputs equal those of `ghm <command> … --days 1`.
-fn c_day_equals_command(name: &str, command: &str, controller_args: &[&str]) {
-    let dir = scratch(name);
+/// A compiled controller against the command it stands for.
+struct Case<'a> {
+    name: &'a str,
+    model: &'a str,
+    /// `mpc`, `rlmpc`, …
+    command: &'a str,
+    /// `--controller KIND` and the controller's options, as `ghm compile` takes them (the
+    /// command takes them without the first two).
+    controller_args: &'a [&'a str],
+    /// The command's weather and length (`--days 1`, or `--weather W --steps N`).
+    season_args: Vec<String>,
+    /// The weather file the C program reads (the season's rows and the horizon's beyond).
+    weather: PathBuf,
+    steps: usize,
+    inputs: usize,
+}
+
+/// Compiles the controller of `case`, links the C example against it, runs the season,
+/// and checks its inputs equal those of `ghm <command>`.
+fn c_run_equals_command(case: Case) {
+    let dir = scratch(case.name);
     let out = dir.join("controller");
     let out_s = out.to_str().unwrap();
-    let mut args = vec!["compile", "models/lettuce.ghm"];
-    args.extend_from_slice(controller_args);
+    let mut args = vec!["compile", case.model];
+    args.extend_from_slice(case.controller_args);
     args.extend_from_slice(&["--out", out_s]);
     let said = succeed("ghm compile", ghm(&args));
     assert!(said.contains("libghm_controller.a"), "{said}");
@@ -132,47 +155,100 @@ fn c_day_equals_command(name: &str, command: &str, controller_args: &[&str]) {
     });
     succeed("cc", compiled);
 
-    let steps = 48;
-    let weather = dir.join("weather.csv");
-    // As many rows as the season loads: its steps and a 1 h horizon (2 steps) beyond.
-    builtin_weather_csv(&weather, steps, 2);
     let run = Command::new(&program)
-        .arg(&weather)
-        .arg(steps.to_string())
+        .arg(&case.weather)
+        .arg(case.steps.to_string())
         .output()
         .unwrap();
     let from_c = succeed("the C example", run);
 
     let season = dir.join("season");
-    let mut args = vec![command, "models/lettuce.ghm", "--days", "1"];
-    args.extend(
-        controller_args
-            .iter()
-            .skip(2) // --controller KIND
-            .copied(),
-    );
+    let mut args = vec![case.command, case.model];
+    args.extend(case.season_args.iter().map(String::as_str));
+    // Without `--controller KIND`.
+    args.extend(case.controller_args.iter().skip(2).copied());
     args.extend_from_slice(&["--out", season.to_str().unwrap()]);
-    succeed(command, ghm(&args));
+    succeed(case.command, ghm(&args));
     let trajectory = std::fs::read_to_string(season.join("trajectory.csv")).unwrap();
 
-    let (c_inputs, rust_inputs) = (input_bits(&from_c), input_bits(&trajectory));
-    assert_eq!(c_inputs.len(), steps);
-    assert_eq!(c_inputs, rust_inputs, "the C program's inputs differ");
+    let c_inputs = input_bits(&from_c, case.inputs);
+    assert_eq!(c_inputs.len(), case.steps);
+    assert_eq!(
+        c_inputs,
+        input_bits(&trajectory, case.inputs),
+        "the C program's inputs differ"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A day of the lettuce season on the built-in weather.
+fn lettuce_day(name: &str, command: &str, controller_args: &[&str]) {
+    let steps = 48;
+    let weather = scratch(&format!("{name}-weather")).join("weather.csv");
+    // As many rows as the season loads: its steps and a 1 h horizon (2 steps) beyond.
+    builtin_weather_csv(&weather, steps, 2);
+    c_run_equals_command(Case {
+        name,
+        model: "models/lettuce.ghm",
+        command,
+        controller_args,
+        season_args: vec!["--days".into(), "1".into()],
+        weather: weather.clone(),
+        steps,
+        inputs: 3,
+    });
+    let _ = std::fs::remove_dir_all(weather.parent().unwrap());
 }
 
 #[test]
 fn a_compiled_mpc_runs_a_day_in_c_with_ghm_mpcs_inputs() {
-    c_day_equals_command("mpc", "mpc", &["--controller", "mpc", "--horizon", "1h"]);
+    lettuce_day("mpc", "mpc", &["--controller", "mpc", "--horizon", "1h"]);
 }
 
 #[test]
 fn a_compiled_rlmpc_runs_a_day_in_c_with_ghm_rlmpcs_inputs() {
-    c_day_equals_command(
+    lettuce_day(
         "rlmpc",
         "rlmpc",
         &["--controller", "rlmpc", "--horizon", "1h"],
     );
+}
+
+/// Issue 35's fourth point: the GreenLight tomato's economic MPC (the imported Katzin 2021
+/// model, its implicit step and exact derivatives), compiled unchanged, decides its first
+/// six steps in C as `ghm mpc` does.
+#[test]
+fn a_compiled_greenlight_mpc_decides_in_c_as_ghm_mpc_does() {
+    let Some(models) = common::greenlight::models_or_skip("the compiled GreenLight MPC") else {
+        return;
+    };
+    let weather =
+        common::greenlight::import(&models, "compile-greenlight", &[]).join("weather.csv");
+    c_run_equals_command(Case {
+        name: "greenlight-mpc",
+        model: "models/greenlight/tomato_economic.ghm",
+        command: "mpc",
+        controller_args: &[
+            "--controller",
+            "mpc",
+            "--horizon",
+            "1h",
+            "--warm-start",
+            "primal-dual",
+            "--bands",
+            "planning",
+        ],
+        season_args: vec![
+            "--weather".into(),
+            weather.to_str().unwrap().into(),
+            "--steps".into(),
+            "6".into(),
+        ],
+        weather: weather.clone(),
+        steps: 6,
+        inputs: 5,
+    });
+    let _ = std::fs::remove_dir_all(weather.parent().unwrap());
 }
 
 #[test]

@@ -29,17 +29,6 @@ fn tolerance(state: &str) -> (f64, f64) {
     }
 }
 
-fn greenlight_models() -> Option<PathBuf> {
-    let path = std::env::var_os("GHM_GREENLIGHT_MODELS")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| {
-            PathBuf::from("/work/venv-gl/lib/python3.11/site-packages/greenlight/models")
-        });
-    path.join("katzin_2021/definition/main_katzin_2021.json")
-        .is_file()
-        .then_some(path)
-}
-
 fn reference() -> Option<PathBuf> {
     let path = PathBuf::from(std::env::var_os("GHM_GREENLIGHT_REFERENCE")?);
     path.join("openloop.csv").is_file().then_some(path)
@@ -48,7 +37,7 @@ fn reference() -> Option<PathBuf> {
 /// GreenLight's model folder and the reference output, or `None` after saying on standard
 /// error that the test skipped and why (`.ci/run` provides both).
 fn models_and_reference() -> Option<(PathBuf, PathBuf)> {
-    let found = greenlight_models().zip(reference());
+    let found = common::greenlight::models().zip(reference());
     if found.is_none() {
         let _ = writeln!(
             std::io::stderr(),
@@ -57,27 +46,6 @@ fn models_and_reference() -> Option<(PathBuf, PathBuf)> {
         );
     }
     found
-}
-
-/// `ghm import greenlight` of Katzin 2021 with its weather into a fresh folder.
-fn import(models: &Path, folder: &str, extra: &[&str]) -> PathBuf {
-    let out = common::bin::temp_dir(folder);
-    let imported = std::process::Command::new(env!("CARGO_BIN_EXE_ghm"))
-        .args(["import", "greenlight"])
-        .arg(models.join("katzin_2021/definition/main_katzin_2021.json"))
-        .arg("--weather")
-        .arg(models.join("katzin_2021/input_data/test_data/Bleiswijk_from_20091020.csv"))
-        .arg("--out")
-        .arg(&out)
-        .args(extra)
-        .output()
-        .unwrap();
-    assert!(
-        imported.status.success(),
-        "ghm import failed:\n{}",
-        String::from_utf8_lossy(&imported.stderr)
-    );
-    out
 }
 
 /// A CSV of numbers with a header, by column name.
@@ -99,7 +67,7 @@ fn read_table(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
 
 #[test]
 fn open_loop_matches_greenlight_point_by_point() {
-    let (Some(models), Some(reference)) = (greenlight_models(), reference()) else {
+    let (Some(models), Some(reference)) = (common::greenlight::models(), reference()) else {
         let _ = writeln!(
             std::io::stderr(),
             "skipped: needs GreenLight's model files (pip install greenlight==2.0.5; \
@@ -108,7 +76,7 @@ fn open_loop_matches_greenlight_point_by_point() {
         );
         return;
     };
-    let out = import(&models, "greenlight-openloop", &[]);
+    let out = common::greenlight::import(&models, "greenlight-openloop", &[]);
     // The shipped model is what the import writes today (the header, which names the
     // files and the command, aside).
     let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/greenlight/katzin_2021.ghm");
@@ -351,7 +319,7 @@ fn closed_loop_with_greenlights_rules_matches_its_means() {
     let Some((models, reference)) = models_and_reference() else {
         return;
     };
-    let out = import(&models, "greenlight-rules", &["--inputs", "none"]);
+    let out = common::greenlight::import(&models, "greenlight-rules", &["--inputs", "none"]);
     let model =
         ghm::lang::load(&out.join("katzin_2021.ghm")).unwrap_or_else(|e| panic!("{}", e.render()));
     let plant = Plant::new(model);
@@ -419,7 +387,8 @@ fn the_rules_controller_holds_greenlights_rules_over_each_step() {
     let Some((models, reference)) = models_and_reference() else {
         return;
     };
-    let weather = import(&models, "greenlight-rules-controller", &[]).join("weather.csv");
+    let weather =
+        common::greenlight::import(&models, "greenlight-rules-controller", &[]).join("weather.csv");
     let (names, rules) = read_table(&reference.join("rules.csv"));
     let steps = rules.len() - 1;
     let season = rules_season(
@@ -459,7 +428,7 @@ fn the_rl_environment_runs_the_imported_model() {
     let Some((models, _)) = models_and_reference() else {
         return;
     };
-    let out = import(&models, "greenlight-env", &[]);
+    let out = common::greenlight::import(&models, "greenlight-env", &[]);
     let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/greenlight/katzin_2021.ghm");
     let model = ghm::lang::load(&shipped).unwrap_or_else(|e| panic!("{}", e.render()));
     let plant = std::sync::Arc::new(Plant::new(model));
@@ -503,14 +472,11 @@ fn the_rl_environment_runs_the_imported_model() {
 /// a positive crop value and pays for heat, lamps and CO₂, every term finite.
 #[test]
 fn the_economic_tomato_model_prices_a_day_of_the_rules() {
-    let Some(models) = greenlight_models() else {
-        let _ = writeln!(
-            std::io::stderr(),
-            "skipped: needs GreenLight's weather (GHM_GREENLIGHT_MODELS); .ci/run provides it"
-        );
+    let Some(models) = common::greenlight::models_or_skip("the economic tomato test") else {
         return;
     };
-    let weather = import(&models, "greenlight-economic", &[]).join("weather.csv");
+    let weather =
+        common::greenlight::import(&models, "greenlight-economic", &[]).join("weather.csv");
     let season = rules_season(
         "models/greenlight/tomato_economic.ghm",
         ghm::job::WeatherSpec {
@@ -599,7 +565,8 @@ fn the_step_derivatives_are_finite_and_near_a_fine_rk4_on_a_season() {
     let Some((models, _)) = models_and_reference() else {
         return;
     };
-    let weather = import(&models, "greenlight-derivatives", &[]).join("weather.csv");
+    let weather =
+        common::greenlight::import(&models, "greenlight-derivatives", &[]).join("weather.csv");
     let steps = 288;
     let season = rules_season(
         "models/greenlight/katzin_2021.ghm",

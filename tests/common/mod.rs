@@ -7,6 +7,7 @@
 #![allow(dead_code)]
 
 pub mod bin;
+pub mod greenlight;
 
 use ghm::control::Mpc;
 use ghm::model::Plant;
