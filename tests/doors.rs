@@ -3,27 +3,16 @@
 //! ABI's). They give the same inputs to the last bit on a perturbed plant, and cut an
 //! answer the input limits refuse the same way. Built-in model and weather, no ../shared.
 
+mod common;
+
 use ghm::control::{LimitPolicy, StepRequest, Stepper};
 use ghm::embed::Bundle;
 use ghm::job::{
-    build_controller, run_season_logs, BandsChoice, ControllerSpec, MpcSpec, PlantSpec, RunSpec,
-    SolverChoice, WeatherSpec,
+    build_controller, run_season_logs, BandsChoice, ControllerSpec, MpcSpec, RunSpec, SolverChoice,
 };
-use std::path::Path;
 
 fn spec(controller: ControllerSpec, uncertainty: f64) -> RunSpec {
-    RunSpec {
-        model: Path::new(env!("CARGO_MANIFEST_DIR")).join("models/lettuce.ghm"),
-        weather: WeatherSpec {
-            days: Some(1.0),
-            ..WeatherSpec::default()
-        },
-        plant: PlantSpec {
-            uncertainty,
-            seed: 7,
-        },
-        controller,
-    }
+    common::lettuce_day(controller, uncertainty, 7)
 }
 
 fn mpc() -> ControllerSpec {

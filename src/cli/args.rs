@@ -3,10 +3,42 @@
 //! from the specs' `Default`), a [`Choice`]'s flag value is parsed by its spec name
 //! ([`choice`]), and a job's error about a spec field is said as its flag ([`flag`]).
 
-use crate::job::{Choice, PlantSpec, WeatherSpec};
+use crate::job::{
+    resume_season_job, run_season_job, Choice, JobError, JobOptions, PlantSpec, RunSpec,
+    SeasonOutcome, WeatherSpec,
+};
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use clap::Args;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+
+/// What a season command does with a run already in its `--out` folder.
+#[derive(Debug, Clone, Args)]
+pub struct FolderArgs {
+    /// Replace the files of an earlier run in the --out folder (otherwise refused).
+    #[arg(long)]
+    pub overwrite: bool,
+    /// Continue the run of the same command killed in the --out folder: its steps are
+    /// replayed from what it wrote and the controller decides from the first step not
+    /// taken (MPC's first solve there is cold). Without such a run, start one.
+    #[arg(long, conflicts_with = "overwrite")]
+    pub resume: bool,
+}
+
+impl FolderArgs {
+    /// Runs the season of `spec` into `out`, printing its figures: resumed with
+    /// `--resume`, afresh otherwise.
+    pub fn run_season(&self, spec: &RunSpec, out: &Path) -> Result<SeasonOutcome, JobError> {
+        let options = JobOptions {
+            overwrite: self.overwrite,
+            verbose: true,
+        };
+        if self.resume {
+            resume_season_job(spec, out, &options)
+        } else {
+            run_season_job(spec, out, &options)
+        }
+    }
+}
 
 /// The flag of a spec field: `start_row` is `--start-row`.
 pub fn flag(field: &str) -> String {

@@ -1,11 +1,8 @@
 //! `ghm mpc`: a season of economic MPC.
 
-use crate::cli::args::{choice, PlantArgs, WeatherArgs};
+use crate::cli::args::{choice, FolderArgs, PlantArgs, WeatherArgs};
 use crate::cli::CliError;
-use crate::job::{
-    run_season_job, BandsChoice, ControllerSpec, JobOptions, MpcSpec, RunSpec, SolverChoice,
-    WarmStartChoice,
-};
+use crate::job::{BandsChoice, ControllerSpec, MpcSpec, RunSpec, SolverChoice, WarmStartChoice};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -25,9 +22,8 @@ pub struct MpcArgs {
     /// Run folder for trajectory.csv, summary.json and trajectory.png.
     #[arg(long, value_name = "DIR", default_value = "runs/mpc")]
     pub out: PathBuf,
-    /// Replace the files of an earlier run in the --out folder (otherwise refused).
-    #[arg(long)]
-    pub overwrite: bool,
+    #[command(flatten)]
+    pub folder: FolderArgs,
 }
 
 /// The NLP back-end and the bands MPC plans with (`ghm mpc`, `ghm rlmpc`, `ghm serve`).
@@ -64,10 +60,6 @@ pub fn run(args: &MpcArgs) -> Result<(), CliError> {
         plant: args.plant.spec(),
         controller: ControllerSpec::Mpc(args.nlp.mpc(&args.horizon)),
     };
-    let options = JobOptions {
-        overwrite: args.overwrite,
-        verbose: true,
-    };
-    run_season_job(&spec, &args.out, &options)?;
+    args.folder.run_season(&spec, &args.out)?;
     Ok(())
 }

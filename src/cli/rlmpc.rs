@@ -4,14 +4,11 @@
 //! uses the agent and value network shipped for the model under `models/agents/`.
 //! `--compare` also runs plain MPC at the same horizon and prints both.
 
-use crate::cli::args::{choice, PlantArgs, WeatherArgs};
+use crate::cli::args::{choice, FolderArgs, PlantArgs, WeatherArgs};
 use crate::cli::mpc::NlpArgs;
 use crate::cli::CliError;
 use crate::job::output::figure;
-use crate::job::{
-    run_season_job, ControllerSpec, CostForm, GuideChoice, JobOptions, MpcSpec, RlmpcSpec, RunSpec,
-    Variant,
-};
+use crate::job::{ControllerSpec, CostForm, GuideChoice, MpcSpec, RlmpcSpec, RunSpec, Variant};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -36,9 +33,8 @@ pub struct RlmpcArgs {
     /// Run folder.
     #[arg(long, value_name = "DIR", default_value = "runs/rlmpc")]
     pub out: PathBuf,
-    /// Replace the files of an earlier run in the --out folder (otherwise refused).
-    #[arg(long)]
-    pub overwrite: bool,
+    #[command(flatten)]
+    pub folder: FolderArgs,
 }
 
 /// The guide, its value network, the terminal region and the terminal cost of RL-guided
@@ -89,16 +85,16 @@ pub fn run(args: &RlmpcArgs) -> Result<(), CliError> {
         plant: args.plant.spec(),
         controller,
     };
-    let options = JobOptions {
-        overwrite: args.overwrite,
-        verbose: true,
-    };
     let label = rlmpc.label();
     let plain = ControllerSpec::Mpc(rlmpc.mpc.clone());
-    let guided = run_season_job(&spec(ControllerSpec::Rlmpc(rlmpc)), &args.out, &options)?;
+    let guided = args
+        .folder
+        .run_season(&spec(ControllerSpec::Rlmpc(rlmpc)), &args.out)?;
     if args.compare {
         println!();
-        let plain = run_season_job(&spec(plain), &args.out.join("mpc"), &options)?;
+        let plain = args
+            .folder
+            .run_season(&spec(plain), &args.out.join("mpc"))?;
         let unit = &guided.unit;
         println!();
         println!("at a {} horizon:", args.horizon);

@@ -1,8 +1,8 @@
 //! `ghm simulate`: a season with fixed inputs or inputs from a CSV file.
 
-use crate::cli::args::{PlantArgs, WeatherArgs};
+use crate::cli::args::{FolderArgs, PlantArgs, WeatherArgs};
 use crate::cli::CliError;
-use crate::job::{run_season_job, ControllerSpec, InputsSpec, JobOptions, RunSpec};
+use crate::job::{ControllerSpec, InputsSpec, RunSpec};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -28,9 +28,8 @@ pub struct SimulateArgs {
     /// Run folder for trajectory.csv, summary.json and trajectory.png.
     #[arg(long, value_name = "DIR", default_value = "runs/simulate")]
     pub out: PathBuf,
-    /// Replace the files of an earlier run in the --out folder (otherwise refused).
-    #[arg(long)]
-    pub overwrite: bool,
+    #[command(flatten)]
+    pub folder: FolderArgs,
 }
 
 pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
@@ -47,10 +46,6 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
             })
         },
     };
-    let options = JobOptions {
-        overwrite: args.overwrite,
-        verbose: true,
-    };
-    run_season_job(&spec, &args.out, &options)?;
+    args.folder.run_season(&spec, &args.out)?;
     Ok(())
 }

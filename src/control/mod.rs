@@ -115,6 +115,18 @@ impl Fallback {
             Fallback::HoldInput => "hold_input",
         }
     }
+
+    /// The fallback a log names ([`as_str`](Self::as_str)'s inverse).
+    pub fn from_name(name: &str) -> Option<Fallback> {
+        [
+            Fallback::ColdStart,
+            Fallback::ShiftedPlan,
+            Fallback::GuideInput,
+            Fallback::HoldInput,
+        ]
+        .into_iter()
+        .find(|f| f.as_str() == name)
+    }
 }
 
 impl fmt::Display for Fallback {

@@ -257,6 +257,28 @@ impl Stepper {
         })
     }
 
+    /// A step already decided (a stopped season's, replayed when it resumes): the request
+    /// checked and observed as [`decide`](Self::decide) does, and `input` and `record`
+    /// returned as they were logged, without asking a controller.
+    pub fn replay(
+        &self,
+        plant: &Plant,
+        params: &[f64],
+        workspace: &mut StepWorkspace,
+        request: &StepRequest,
+        input: &[f64],
+        record: &StepRecord,
+    ) -> Result<StepDecision, StepError> {
+        let outputs = self.observe(plant, params, workspace, request)?;
+        size("input", input, plant.layout.nu)?;
+        Ok(StepDecision {
+            input: input.to_vec(),
+            outputs,
+            record: record.clone(),
+            plan: None,
+        })
+    }
+
     /// Checks the request and returns the outputs the controller observes.
     fn observe(
         &self,

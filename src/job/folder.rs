@@ -88,6 +88,13 @@ pub fn recorded(dir: &Path) -> Option<(String, serde_json::Value)> {
     Some((status, record["spec"].clone()))
 }
 
+/// The process that `run.json` in `dir` says held the run; `None` without one.
+pub fn recorded_pid(dir: &Path) -> Option<u32> {
+    let text = std::fs::read_to_string(dir.join("run.json")).ok()?;
+    let record: serde_json::Value = serde_json::from_str(&text).ok()?;
+    u32::try_from(record["pid"].as_u64()?).ok()
+}
+
 impl RunFolder {
     /// Claims `dir` for a new run: refused if it holds a run's files, unless `overwrite`
     /// (which removes them first); creates it and writes `run.json` as running.

@@ -15,6 +15,7 @@ pub mod build;
 mod choice;
 pub mod folder;
 pub mod output;
+pub mod resume;
 mod season;
 mod spec;
 pub mod train;
@@ -25,9 +26,9 @@ pub use build::{load_model, ControllerFiles};
 pub use choice::Choice;
 pub use folder::RunFolder;
 pub use season::{
-    build_controller, build_controller_with, print_metrics, run_external_season_job,
-    run_season_job, run_season_logs, ExternalController, JobOptions, SeasonLogs, SeasonOutcome,
-    StandaloneController,
+    build_controller, build_controller_with, print_metrics, resume_season_job,
+    run_external_season_job, run_season_job, run_season_logs, ExternalController, JobOptions,
+    SeasonLogs, SeasonOutcome, StandaloneController,
 };
 pub use spec::{
     BandsChoice, ControllerKind, ControllerSpec, CostForm, GuideChoice, InputsSpec, MpcSpec,
@@ -59,6 +60,19 @@ impl JobError {
             value: None,
             message: message.into(),
         }
+    }
+}
+
+impl JobError {
+    /// Whether this is a stopped season that cannot be resumed (its trajectory is
+    /// another model's, or the replay does not reach the states it logged): a study then
+    /// runs the season afresh.
+    pub fn refuses_resume(&self) -> bool {
+        matches!(
+            self,
+            JobError::Resume { .. }
+                | JobError::Simulation(crate::sim::season::SimError::ResumeDiverged { .. })
+        )
     }
 }
 
@@ -112,6 +126,14 @@ pub enum JobError {
         /// The file or folder that could not be written.
         path: PathBuf,
         /// Why, as the I/O or encoding error says it.
+        message: String,
+    },
+    /// A stopped season's trajectory cannot be resumed from: the message says why.
+    #[error("cannot resume from {path}: {message}")]
+    Resume {
+        /// The stopped run's trajectory.
+        path: PathBuf,
+        /// Why.
         message: String,
     },
     /// A season in which every solve failed: its files are written (with the message in

@@ -11,6 +11,7 @@ use crate::job::build::{
 };
 use crate::job::folder::{self, RunFolder};
 use crate::job::output::{figure, model_hash, plot_trajectory, write_summary, TrajectoryWriter};
+use crate::job::resume;
 use crate::job::spec::{
     ControllerSpec, CostForm, MpcSpec, OptimumSpec, PlantSpec, RlmpcSpec, RunSpec, SolverChoice,
     SolverSpec, Variant, WarmStartChoice,
@@ -19,7 +20,7 @@ use crate::job::JobError;
 use crate::model::Plant;
 use crate::sim::metrics::Metrics;
 use crate::sim::optimum::season_optimum;
-use crate::sim::season::{run_season, SeasonConfig, StepLog};
+use crate::sim::season::{resume_season, run_season, SeasonConfig, StepLog, StepsTaken};
 use crate::sim::weather::Weather;
 use serde_json::json;
 use std::path::Path;
@@ -137,6 +138,39 @@ pub fn run_season_job(
     run_prepared(spec, out, options, prepare(spec, Some(out), options, None)?)
 }
 
+/// [`run_season_job`], continuing the run of the same spec that was killed in `out` if
+/// there is one (`ghm mpc --resume`, and a study run again): the steps it took are read
+/// back from its temporary trajectory and replayed through the plant (each state checked
+/// bit for bit), and the controller decides from the first step not taken, cold (MPC's
+/// first solve has no last plan to start from). Without such a run, a fresh one. See
+/// [`crate::job::resume`].
+pub fn resume_season_job(
+    spec: &RunSpec,
+    out: &Path,
+    options: &JobOptions,
+) -> Result<SeasonOutcome, JobError> {
+    let stopped = resume::stopped_trajectory(out, &json!(spec))?;
+    let prepared = prepare(spec, Some(out), options, None)?;
+    let Some(path) = stopped else {
+        return run_prepared(spec, out, options, prepared);
+    };
+    let taken = resume::read_steps_taken(&path, &prepared.built.plant)?;
+    if options.verbose {
+        println!("resuming {} after {} steps", out.display(), taken.len());
+    }
+    let run = RunFolder::continue_in(out)?;
+    let label = prepared.built.label.clone();
+    let unit = prepared.built.plant.model.objective_unit();
+    let season = season_files(spec, out, prepared, options, &taken);
+    let season = season.and_then(|m| resume::remove_stopped_trajectories(out).map(|()| m));
+    let metrics = run.finish(season)?;
+    Ok(SeasonOutcome {
+        metrics,
+        label,
+        unit,
+    })
+}
+
 /// [`run_season_job`] with `external` deciding the inputs in place of the controller the
 /// spec names: the same season, files and folder.
 pub fn run_external_season_job(
@@ -163,7 +197,13 @@ fn run_prepared(
     let run = RunFolder::claim(out, options.overwrite, Some(json!(spec)))?;
     let label = prepared.built.label.clone();
     let unit = prepared.built.plant.model.objective_unit();
-    let metrics = run.finish(season_files(spec, out, prepared, options))?;
+    let metrics = run.finish(season_files(
+        spec,
+        out,
+        prepared,
+        options,
+        &StepsTaken::default(),
+    ))?;
     Ok(SeasonOutcome {
         metrics,
         label,
@@ -470,6 +510,7 @@ fn season_files(
     out: &Path,
     prepared: Prepared,
     options: &JobOptions,
+    taken: &StepsTaken,
 ) -> Result<Metrics, JobError> {
     let Prepared {
         mut built,
@@ -479,11 +520,12 @@ fn season_files(
     } = prepared;
     let plant = built.plant.clone();
     let mut writer = TrajectoryWriter::create(out, &plant, config.steps, options.verbose)?;
-    let result = run_season(
+    let result = resume_season(
         &plant,
         &weather,
         built.controller.as_mut(),
         &config,
+        taken,
         &mut writer,
     );
     writer.finish(result.is_ok())?;

@@ -65,6 +65,23 @@ pub enum SimError {
     /// The [`StepSink`] failed; holds its message.
     #[error("writing the results failed: {0}")]
     Sink(String),
+    /// A resumed season's replay reached a state other than the stopped run logged: the
+    /// model, the weather or the plant's parameters are not the run's.
+    #[error(
+        "step {step}: replaying the stopped run gives {state} = {replayed}, where it logged \
+         {logged}; the model, weather or plant differ from that run's, so it cannot be \
+         resumed (start it afresh)"
+    )]
+    ResumeDiverged {
+        /// The step whose starting state differs.
+        step: usize,
+        /// The state's name.
+        state: String,
+        /// What the replay reached.
+        replayed: f64,
+        /// What the stopped run logged.
+        logged: f64,
+    },
     /// The step's request to the controller was refused (a forecast row that is not finite).
     #[error("step {step}: {source}")]
     Step {
@@ -236,6 +253,31 @@ impl<F: FnMut(&StepLog)> StepSink for F {
     }
 }
 
+/// The steps a stopped season took, read back from what it wrote, for
+/// [`resume_season`]: each step's state `x(k)` as logged, the input applied and the
+/// controller's record.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct StepsTaken {
+    /// `x(k)` before each step.
+    pub states: Vec<Vec<f64>>,
+    /// The input applied at each step.
+    pub inputs: Vec<Vec<f64>>,
+    /// What the controller reported at each step.
+    pub records: Vec<StepRecord>,
+}
+
+impl StepsTaken {
+    /// The number of steps taken.
+    pub fn len(&self) -> usize {
+        self.inputs.len()
+    }
+
+    /// Whether no step was taken.
+    pub fn is_empty(&self) -> bool {
+        self.inputs.is_empty()
+    }
+}
+
 /// The result of a season.
 #[derive(Debug, Clone)]
 pub struct SeasonResult {
@@ -374,6 +416,30 @@ pub fn run_season(
     config: &SeasonConfig,
     sink: &mut dyn StepSink,
 ) -> Result<SeasonResult, SimError> {
+    resume_season(
+        plant,
+        weather,
+        controller,
+        config,
+        &StepsTaken::default(),
+        sink,
+    )
+}
+
+/// [`run_season`] continued after the steps `taken` of a stopped run: they are replayed
+/// through the plant (their inputs applied again, the parameters drawn again, each state
+/// checked bit for bit against the one logged, every step sent to `sink` as before), and
+/// the controller decides from the first step not taken. The season's figures are those of
+/// the whole season; a controller that carries something from step to step (MPC's warm
+/// start) starts afresh where the replay ends.
+pub fn resume_season(
+    plant: &Plant,
+    weather: &Weather,
+    controller: &mut dyn Controller,
+    config: &SeasonConfig,
+    taken: &StepsTaken,
+    sink: &mut dyn StepSink,
+) -> Result<SeasonResult, SimError> {
     let l = plant.layout;
     if weather.width() != l.nd {
         return Err(SimError::WeatherWidth {
@@ -431,25 +497,28 @@ pub fn run_season(
             }),
             None => Ok(()),
         };
-        let decision = stepper
-            .decide(plant, &params, &mut ws, controller, &request)
-            .map_err(|e| match e {
-                StepError::NotFinite {
-                    described, value, ..
-                } => SimError::NotFinite {
-                    step: k,
-                    quantity: described,
-                    value,
-                },
-                StepError::InputWidth { given, expected } => {
-                    SimError::InputWidth { given, expected }
-                }
-                StepError::Controller(source) => SimError::Controller { step: k, source },
-                other => SimError::Step {
-                    step: k,
-                    source: other,
-                },
-            })?;
+        let decided = match (taken.inputs.get(k), taken.records.get(k)) {
+            (Some(input), Some(record)) => {
+                diverged(plant, k, &x, taken.states.get(k))?;
+                stepper.replay(plant, &params, &mut ws, &request, input, record)
+            }
+            _ => stepper.decide(plant, &params, &mut ws, controller, &request),
+        };
+        let decision = decided.map_err(|e| match e {
+            StepError::NotFinite {
+                described, value, ..
+            } => SimError::NotFinite {
+                step: k,
+                quantity: described,
+                value,
+            },
+            StepError::InputWidth { given, expected } => SimError::InputWidth { given, expected },
+            StepError::Controller(source) => SimError::Controller { step: k, source },
+            other => SimError::Step {
+                step: k,
+                source: other,
+            },
+        })?;
         let (u, y) = (decision.input, decision.outputs);
         plant.step_into(&mut ws, &x, &u, d, &params, &mut out);
         not_finite(first_non_finite(&out.next_state, Quantity::State))?;
@@ -490,6 +559,38 @@ pub fn run_season(
         metrics: metrics.finish(),
         final_state: x,
     })
+}
+
+/// A replayed step's state against the one the stopped run logged, bit for bit.
+fn diverged(
+    plant: &Plant,
+    step: usize,
+    x: &[f64],
+    logged: Option<&Vec<f64>>,
+) -> Result<(), SimError> {
+    let Some(logged) = logged else {
+        return Ok(());
+    };
+    match x
+        .iter()
+        .zip(logged)
+        .position(|(a, b)| a.to_bits() != b.to_bits())
+    {
+        None if x.len() == logged.len() => Ok(()),
+        found => {
+            let i = found.unwrap_or(x.len().min(logged.len()));
+            Err(SimError::ResumeDiverged {
+                step,
+                state: plant
+                    .model
+                    .states
+                    .get(i)
+                    .map_or_else(|| format!("state {i}"), |s| s.info.name.clone()),
+                replayed: x.get(i).copied().unwrap_or(f64::NAN),
+                logged: logged.get(i).copied().unwrap_or(f64::NAN),
+            })
+        }
+    }
 }
 
 /// A seed for the `index`-th of many independent streams derived from `seed` (a

@@ -72,6 +72,20 @@ impl SolveStatus {
             SolveStatus::InvalidNumber => "invalid_number",
         }
     }
+
+    /// The status a log names ([`as_str`](Self::as_str)'s inverse).
+    pub fn from_name(name: &str) -> Option<SolveStatus> {
+        [
+            SolveStatus::Optimal,
+            SolveStatus::Acceptable,
+            SolveStatus::MaxIterations,
+            SolveStatus::Infeasible,
+            SolveStatus::NumericalError,
+            SolveStatus::InvalidNumber,
+        ]
+        .into_iter()
+        .find(|s| s.as_str() == name)
+    }
 }
 
 impl fmt::Display for SolveStatus {

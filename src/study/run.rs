@@ -7,7 +7,7 @@ use crate::job::folder;
 use crate::job::output::{io_err, progress_bar};
 use crate::job::train::run_train_job;
 use crate::job::value::run_value_job;
-use crate::job::{run_season_job, JobError, JobOptions};
+use crate::job::{resume_season_job, run_season_job, JobError, JobOptions};
 use crate::report::atomic;
 use crate::report::table::csv_writer;
 use crate::study::plan::{plan, Job, Work};
@@ -349,12 +349,22 @@ fn run_job(job: &Job, out: &Path) -> Result<String, JobError> {
         verbose: false,
     };
     match &job.work {
-        Work::Season(spec) => run_season_job(spec, &dir, &options).map(|o| {
-            format!(
-                "cumulative reward {:+.4} {}, {} failed solves",
-                o.metrics.cumulative_reward, o.unit, o.metrics.solve.failed_solves
-            )
-        }),
+        // A season killed in an earlier run of the study continues where it stopped, or
+        // runs afresh where that run cannot be continued (its model file changed).
+        Work::Season(spec) => resume_season_job(spec, &dir, &options)
+            .or_else(|e| {
+                if e.refuses_resume() {
+                    run_season_job(spec, &dir, &options)
+                } else {
+                    Err(e)
+                }
+            })
+            .map(|o| {
+                format!(
+                    "cumulative reward {:+.4} {}, {} failed solves",
+                    o.metrics.cumulative_reward, o.unit, o.metrics.solve.failed_solves
+                )
+            }),
         Work::Train(spec) => run_train_job(spec, &dir, &options, true)
             .map(|()| format!("trained ({} episodes)", spec.episodes)),
         Work::Value(spec) => run_value_job(spec, &dir, &options)

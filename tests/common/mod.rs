@@ -20,6 +20,24 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+/// A day of the lettuce model on the built-in weather under `controller`, on a plant
+/// perturbed by `uncertainty` (seed `seed`): the run spec of the tests that need no data.
+pub fn lettuce_day(
+    controller: ghm::job::ControllerSpec,
+    uncertainty: f64,
+    seed: u64,
+) -> ghm::job::RunSpec {
+    ghm::job::RunSpec {
+        model: Path::new(env!("CARGO_MANIFEST_DIR")).join("models/lettuce.ghm"),
+        weather: ghm::job::WeatherSpec {
+            days: Some(1.0),
+            ..ghm::job::WeatherSpec::default()
+        },
+        plant: ghm::job::PlantSpec { uncertainty, seed },
+        controller,
+    }
+}
+
 /// The Venlo 2014 weather in the shared folder.
 pub const VENLO: &str = "data/venlo2014_30min_model_units.csv";
 
