@@ -100,6 +100,8 @@ pub struct Table {
     pub rows: Vec<Vec<String>>,
     /// The position of `Time` in `columns`.
     pub time: usize,
+    /// The file's line (1-based) of the first data row.
+    pub first_line: usize,
 }
 
 impl Table {
@@ -117,6 +119,40 @@ impl Table {
     pub fn value(&self, row: usize, name: &str) -> Option<f64> {
         let i = self.columns.iter().position(|c| c.name == name)?;
         self.rows.get(row)?.get(i)?.parse().ok()
+    }
+
+    /// The rows at every `step_s` seconds from the first (the model's control period, so
+    /// that the weather has one row per step, held over it); `Err` with the line of the
+    /// first row that breaks the pattern: a gap, or times that never land on a step.
+    pub fn every(mut self, step_s: f64, path: &Path) -> Result<Table, ImportError> {
+        let times: Vec<f64> = self
+            .rows
+            .iter()
+            .map(|row| row[self.time].parse().unwrap_or(f64::NAN))
+            .collect();
+        let Some(&first) = times.first() else {
+            return Ok(self);
+        };
+        let mut kept = Vec::with_capacity(self.rows.len());
+        let mut next = first;
+        for (i, (row, &t)) in self.rows.into_iter().zip(&times).enumerate() {
+            let tolerance = 1e-6 * step_s.max(1.0);
+            if (t - next).abs() <= tolerance {
+                kept.push(row);
+                next += step_s;
+            } else if t > next + tolerance {
+                return Err(ImportError::Weather {
+                    path: path.to_path_buf(),
+                    line: self.first_line + i,
+                    message: format!(
+                        "no row at {next} s: the rows must fall on every {step_s} s step \
+                         (--step) from the first at {first} s"
+                    ),
+                });
+            }
+        }
+        self.rows = kept;
+        Ok(self)
     }
 
     /// The ghm weather CSV: `time_s`, then the other columns in file order.
@@ -272,6 +308,7 @@ pub fn parse(path: &Path, text: &str) -> Result<Table, ImportError> {
         columns,
         rows,
         time,
+        first_line: first_data_line,
     })
 }
 
@@ -290,6 +327,23 @@ mod tests {
         // UTF-8 is read as UTF-8, other bytes as Windows-1252.
         assert_eq!(decode_text("°C".as_bytes()), "°C");
         assert_eq!(decode_text(b"\xb0C"), "°C");
+    }
+
+    /// One row per step of the model: every second row of a 60 s file for a 120 s step;
+    /// a step no row falls on is refused with its line.
+    #[test]
+    fn rows_are_kept_at_every_step() {
+        let text = "Time,a\n0,1\n60,2\n120,3\n180,4\n240,5\n";
+        let t = parse(Path::new("w.csv"), text).unwrap();
+        let every = t.clone().every(120.0, Path::new("w.csv")).unwrap();
+        assert_eq!(every.to_ghm_csv(), "time_s,a\n0,1\n120,3\n240,5\n");
+        assert_eq!(t.clone().every(60.0, Path::new("w.csv")).unwrap(), t);
+        let e = t.every(90.0, Path::new("w.csv")).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "w.csv: line 4: no row at 90 s: the rows must fall on every 90 s step (--step) \
+             from the first at 0 s"
+        );
     }
 
     #[test]

@@ -105,7 +105,7 @@ pub fn convert(opts: &Options) -> Result<Imported, ImportError> {
         }
     }
     let table = match &weather_path {
-        Some(p) => Some(weather::read(p)?),
+        Some(p) => Some(weather::read(p)?.every(opts.step_s, p)?),
         None => None,
     };
     let inputs: Vec<String> = match &opts.inputs {
