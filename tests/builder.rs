@@ -1,15 +1,19 @@
-//! A plant built in Rust equals the same plant written in `.ghm`: the example plant
-//! (`examples/custom_plant.rs`) and the CSTR, in what the
+//! A plant built in Rust equals the same plant written in `.ghm`: every example plant
+//! (`examples/custom_plant.rs`, `examples/lettuce_in_rust.rs`) and the CSTR, in what the
 //! model declares and in the value, Jacobian and Hessian of its step; and the builder
 //! refuses what the language refuses.
 
 use ghm::lang::model::Info;
 use ghm::model::{BuildError, ModelBuilder, Output, Plant, State, StepDerivatives};
 use ghm::prelude::{if_else, Model, Uncertainty};
+use ghm::sim::weather::builtin_season;
 
 #[path = "../examples/custom_plant.rs"]
 #[allow(dead_code)]
 mod custom_plant;
+#[path = "../examples/lettuce_in_rust.rs"]
+#[allow(dead_code)]
+mod lettuce_in_rust;
 
 const ROOM_GHM: &str = r#"
 model room "a heated room, 15-minute control"
@@ -161,6 +165,22 @@ fn the_room_of_the_example_is_its_ghm_twin() {
     let code = Plant::new(custom_plant::room().expect("the room builds"));
     assert_same_declarations(&file.model, &code.model);
     let points = trajectory(&file, 200, |_| vec![5.0]);
+    assert_same_step(&file, &code, &points);
+}
+
+/// The lettuce greenhouse written in Rust is `models/lettuce.ghm`, over a 40-day season of
+/// the built-in weather (1920 steps of 30 minutes).
+#[test]
+fn the_lettuce_in_rust_is_models_lettuce_ghm_over_a_season() {
+    let file = Plant::new(load("models/lettuce.ghm"));
+    let code = Plant::new(lettuce_in_rust::lettuce().expect("the lettuce builds"));
+    assert_same_declarations(&file.model, &code.model);
+    let steps = 40 * 48;
+    let columns = file.model.weather_columns();
+    let weather = builtin_season(steps, file.model.sample_period, 2014)
+        .select(&columns, 0, steps)
+        .expect("the built-in season has the lettuce's columns");
+    let points = trajectory(&file, steps, |k| weather.at(k).to_vec());
     assert_same_step(&file, &code, &points);
 }
 
