@@ -1,7 +1,8 @@
 //! ghm: economic model-predictive control with learned guidance.
 //!
 //! A plant and its economic cost come from a `.ghm` file ([`lang::load()`]) or from Rust
-//! ([`model::ModelBuilder`]); [`model::Plant`] compiles them into tapes with exact
+//! ([`model::ModelBuilder`], equations written as in the file; [`prelude`] has what a plant
+//! author needs); [`model::Plant`] compiles them into tapes with exact
 //! derivatives; a [`control::Controller`] — [`control::Mpc`] over an [`nlp::Ocp`] solved by
 //! [`solve::Ipm`] (the interior point, `ghm mpc`'s default), [`solve::Sqp`] or IPOPT
 //! (feature `ipopt`), or your own type — chooses the inputs; and
@@ -46,3 +47,36 @@ pub mod serve;
 pub mod sim;
 pub mod solve;
 pub mod study;
+
+/// What a plant author needs, in one `use ghm::prelude::*;`: the builder and its handles,
+/// the model, the plant, and the settings a model names.
+///
+/// ```
+/// use ghm::prelude::*;
+///
+/// fn decay() -> Result<Model, BuildError> {
+///     let b = ModelBuilder::new("decay");
+///     let x = b.state("x", 1.0).unit("mol");
+///     let k = b.param("k", 0.1).unit("s^-1").uncertain();
+///     b.der(x, -k * x);
+///     b.output("amount", x);
+///     b.sample(1.0, 1);
+///     b.integrator(Integrator::Radau5);
+///     b.build()
+/// }
+///
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// let plant = Plant::new(decay()?);
+/// let next = plant.step(&[1.0], &[], &[], &[0.1]).next_state[0];
+/// assert!((next - (-0.1f64).exp()).abs() < 1e-6);
+/// # Ok(())
+/// # }
+/// ```
+pub mod prelude {
+    pub use crate::lang::model::{Integrator, Redraw, Uncertainty};
+    pub use crate::lang::Model;
+    pub use crate::model::{
+        if_else, Band, BuildError, Disturbance, Expr, Input, ModelBuilder, Operand, Output, Param,
+        Plant, State, Term,
+    };
+}

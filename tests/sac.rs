@@ -18,17 +18,13 @@ const STEPS: usize = 40;
 
 /// Drive a position from 0 to 1: `dx/dt = 0.25 u`, `u ∈ [−1, 1]`, reward `−(x − 1)²`.
 fn reach_plant() -> Arc<Plant> {
-    let mut b = ModelBuilder::new("reach");
+    let b = ModelBuilder::new("reach");
     let pos = b.state("pos", 0.0);
-    let push = b.input("push", -1.0, 1.0, None, 0.0);
-    let gain = b.constant(0.25);
-    let rhs = b.mul(gain, push);
-    b.der(pos, rhs);
+    let push = b.input("push").bounds(-1.0, 1.0);
+    b.der(pos, 0.25 * push);
     b.output("pos", pos);
-    let one = b.constant(1.0);
-    let gap = b.sub(pos, one);
-    let square = b.mul(gap, gap);
-    b.cost("distance", square);
+    let gap = pos - 1.0;
+    b.cost("distance", gap * gap);
     b.sample(1.0, 1);
     Arc::new(Plant::new(b.build().expect("the reach model builds")))
 }

@@ -36,12 +36,11 @@ pub fn observation_after_outputs(rest: &mut [f64], previous_input: &[f64], step:
 /// use ghm::model::Plant;
 /// use ghm::agent::observation::action_scale;
 ///
-/// let mut b = ModelBuilder::new("two inputs");
+/// let b = ModelBuilder::new("two inputs");
 /// let x = b.state("x", 0.0);
-/// let fast = b.input("fast", 0.0, 10.0, None, 0.0); // no rate limit: its range
-/// let slow = b.input("slow", -1.0, 1.0, Some(0.1), 0.0); // its rate limit
-/// let rhs = b.add(fast, slow);
-/// b.der(x, rhs);
+/// let fast = b.input("fast").bounds(0.0, 10.0); // no rate limit: its range
+/// let slow = b.input("slow").bounds(-1.0, 1.0).rate(0.1); // its rate limit
+/// b.der(x, fast + slow);
 /// b.sample(60.0, 1);
 /// let plant = Plant::new(b.build()?);
 /// assert_eq!(action_scale(&plant)?, [10.0, 0.1]);

@@ -19,7 +19,10 @@ mod step_derivatives;
 pub mod verify;
 
 pub use crate::lang::model::{Layout, SoftBand};
-pub use builder::{BuildError, Ex, ModelBuilder};
+pub use builder::{
+    if_else, Band, BuildError, Disturbance, Expr, Input, ModelBuilder, Operand, Output, Param,
+    State, Term,
+};
 pub use penalty::{band_penalty, StagePenalty};
 pub use step_derivatives::StepDerivatives;
 
@@ -60,10 +63,9 @@ pub(crate) fn rhs_at(graph: &mut Graph, model: &Model, x: &[NodeId], elapsed: f6
 /// use ghm::model::{discretize, ModelBuilder};
 ///
 /// // ẋ = −x over one step of h = 0.5 s: RK4 is the Taylor series of e^{−h} to h⁴.
-/// let mut b = ModelBuilder::new("decay");
+/// let b = ModelBuilder::new("decay");
 /// let x = b.state("x", 1.0);
-/// let rhs = b.neg(x);
-/// b.der(x, rhs);
+/// b.der(x, -x);
 /// b.sample(0.5, 1);
 /// let model = b.build().unwrap();
 /// let mut graph = model.graph.clone();
