@@ -2,11 +2,11 @@
 //!
 //! * [`Sqp`]: sequential quadratic programming with the exact Hessian, regularised per
 //!   stage block, quadratic sub-problems solved by clarabel, an ℓ₁-merit line search and
-//!   warm starts. Pure Rust; the default of MPC.
+//!   warm starts. Pure Rust.
 //! * [`Ipm`]: a primal-dual interior point for optimal-control problems ([`Nlp::stages`]):
 //!   the Newton step by a Riccati recursion over the stages ([`riccati`]), the exact
 //!   Hessian with inertia correction, IPOPT's filter line search. Pure Rust; the default
-//!   of the season optimum.
+//!   of MPC, RL-guided MPC and the season optimum.
 //! * `Ipopt` (cargo feature `ipopt`): the system's IPOPT through its C interface.
 //!
 //! A solve never panics on a bad problem: it returns a [`Solution`] whose
