@@ -24,8 +24,11 @@
 //! `q_k` and `c_k`: a second right-hand side (a second-order correction, a corrector step)
 //! reuses the factorisation. Cost `O(N (n_z + n_v)³)` per factorisation; every matrix and
 //! vector of both passes lives in the workspace [`Riccati::new`] sizes, so that neither
-//! allocates (but where a stage's factorisation fails, and nalgebra's matrix product for
-//! stages of more than five states, which packs its operands in a buffer of its own).
+//! allocates, but for nalgebra's product `P_{k+1} A_k` where both stages have more than
+//! five states (and `P_{k+1} B_k` where stage `k` also has more than five controls):
+//! matrixmultiply packs its operands in a buffer of its own. A stage-wise correction
+//! allocates too (its eigenvalues), and so does the Cholesky storage after a failed
+//! factorisation.
 
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 
