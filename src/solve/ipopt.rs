@@ -11,13 +11,13 @@
 //! Multipliers: IPOPT's stationarity is `∇f + Jᵀλ − z_L + z_U = 0`; this module returns
 //! `λ` as is and `ν = z_U − z_L`, and splits a warm start's `ν` back into `z_L, z_U`.
 
-use super::{kkt_residuals, Solution, SolveStats, SolveStatus, Solver, Start};
+use super::solution_builder::{Ending, SolutionBuilder};
+use super::{kkt_residuals, Solution, SolveStatus, Solver, Start};
 use crate::nlp::{Nlp, Pattern};
 use ipopt_sys as sys;
 use std::ffi::{c_void, CString};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::{Mutex, PoisonError};
-use std::time::Instant;
 
 /// Options of the IPOPT back-end. Values out of IPOPT's ranges fail a solve (with
 /// [`SolveStatus::NumericalError`]) before IPOPT sees them, as IPOPT would print about them.
@@ -129,19 +129,8 @@ struct Context<'a> {
 }
 
 /// A solve that never reached IPOPT (bad input, or IPOPT refused the problem).
-fn failed(nlp: &mut dyn Nlp, x: Vec<f64>, time: Instant) -> Solution {
-    let (n, m) = (nlp.n_vars(), nlp.n_cons());
-    Solution {
-        status: SolveStatus::NumericalError,
-        multipliers: vec![0.0; m],
-        bound_multipliers: vec![0.0; n],
-        stats: SolveStats {
-            objective: f64::NAN,
-            time_s: time.elapsed().as_secs_f64(),
-            ..SolveStats::default()
-        },
-        x,
-    }
+fn failed(nlp: &mut dyn Nlp, x: Vec<f64>, builder: SolutionBuilder) -> Solution {
+    builder.refused(SolveStatus::NumericalError, x, nlp.n_cons())
 }
 
 impl Solver for Ipopt {
@@ -163,7 +152,7 @@ impl Solver for Ipopt {
     }
 
     fn solve(&mut self, nlp: &mut dyn Nlp, start: Start<'_>) -> Solution {
-        let time = Instant::now();
+        let builder = SolutionBuilder::start("ipopt", false);
         let (n, m) = (nlp.n_vars(), nlp.n_cons());
         let (jacobian, hessian) = (
             nlp.jacobian_pattern().clone(),
@@ -189,7 +178,7 @@ impl Solver for Ipopt {
         if !input_ok {
             let mut x = vec![0.0; n];
             nlp.initial_point(&mut x);
-            return failed(nlp, x, time);
+            return failed(nlp, x, builder);
         }
         let limit = self
             .iteration_limit
@@ -247,7 +236,7 @@ impl Solver for Ipopt {
             )
         };
         if created != sys::CNLP_CreateProblemStatus_CNLP_SUCCESS || problem.is_null() {
-            return failed(ctx.nlp, start.x.to_vec(), time);
+            return failed(ctx.nlp, start.x.to_vec(), builder);
         }
         let options_ok = options
             .into_iter()
@@ -279,19 +268,14 @@ impl Solver for Ipopt {
         let nlp = ctx.nlp;
         let objective = nlp.objective(&x);
         let kkt = kkt_residuals(nlp, &x, &lambda, &nu);
-        Solution {
+        let ending = Ending {
             status,
-            x,
-            multipliers: lambda,
-            bound_multipliers: nu,
-            stats: SolveStats {
-                iterations: ctx.iterations,
-                time_s: time.elapsed().as_secs_f64(),
-                objective,
-                kkt,
-                inertia_corrections: 0,
-            },
-        }
+            iterations: ctx.iterations,
+            objective,
+            kkt,
+            inertia_corrections: 0,
+        };
+        builder.build(ending, x, lambda, nu)
     }
 }
 

@@ -64,18 +64,27 @@ pub(crate) struct Bounds {
 
 impl Bounds {
     pub fn of(nlp: &dyn Nlp) -> Bounds {
-        let (n, m) = (nlp.n_vars(), nlp.n_cons());
-        let mut b = Bounds {
-            x_lower: vec![0.0; n],
-            x_upper: vec![0.0; n],
-            g_lower: vec![0.0; m],
-            g_upper: vec![0.0; m],
-            scale: vec![1.0; n],
-        };
-        nlp.var_bounds(&mut b.x_lower, &mut b.x_upper);
-        nlp.var_scales(&b.x_lower, &b.x_upper, &mut b.scale);
-        nlp.con_bounds(&mut b.g_lower, &mut b.g_upper);
+        let mut b = Bounds::default();
+        b.read(nlp);
         b
+    }
+
+    /// Reads the bounds of `nlp` into these vectors (sized to the problem, without
+    /// allocating when they have the size already).
+    pub fn read(&mut self, nlp: &dyn Nlp) {
+        let (n, m) = (nlp.n_vars(), nlp.n_cons());
+        let reset = |v: &mut Vec<f64>, len: usize, value: f64| {
+            v.clear();
+            v.resize(len, value);
+        };
+        reset(&mut self.x_lower, n, 0.0);
+        reset(&mut self.x_upper, n, 0.0);
+        reset(&mut self.g_lower, m, 0.0);
+        reset(&mut self.g_upper, m, 0.0);
+        reset(&mut self.scale, n, 1.0);
+        nlp.var_bounds(&mut self.x_lower, &mut self.x_upper);
+        nlp.var_scales(&self.x_lower, &self.x_upper, &mut self.scale);
+        nlp.con_bounds(&mut self.g_lower, &mut self.g_upper);
     }
 }
 

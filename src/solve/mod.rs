@@ -17,11 +17,14 @@
 //! multipliers and `ν` the bound multipliers, both signed: positive where an upper bound
 //! is active, negative where a lower bound is.
 
+mod error;
 mod ipm;
 mod kkt;
 mod qp;
 pub mod riccati;
+mod solution_builder;
 mod sqp;
+mod termination;
 
 #[cfg(feature = "ipopt")]
 mod ipopt;

@@ -22,8 +22,13 @@
 //!
 //! [`Riccati::factor`] depends on the matrices only, [`Riccati::solve`] on the vectors
 //! `q_k` and `c_k`: a second right-hand side (a second-order correction, a corrector step)
-//! reuses the factorisation. Cost `O(N (n_z + n_v)³)` per factorisation, with no
-//! allocation after the first.
+//! reuses the factorisation. Cost `O(N (n_z + n_v)³)` per factorisation; every matrix and
+//! vector of both passes lives in the workspace [`Riccati::new`] sizes, so that neither
+//! allocates, but for nalgebra's product `P_{k+1} A_k` where both stages have more than
+//! five states (and `P_{k+1} B_k` where stage `k` also has more than five controls):
+//! matrixmultiply packs its operands in a buffer of its own. A stage-wise correction
+//! allocates too (its eigenvalues), and so does the Cholesky storage after a failed
+//! factorisation.
 
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 
@@ -96,7 +101,8 @@ impl Terminal {
 
 /// The reduced Hessian of a stage is not positive definite: the KKT matrix has the wrong
 /// inertia (with the `δ` it was factorised with).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("the reduced Hessian of stage {stage} is not positive definite")]
 pub struct WrongInertia {
     /// The stage whose `R̂_k` failed its Cholesky factorisation.
     pub stage: usize,
@@ -105,15 +111,23 @@ pub struct WrongInertia {
 /// Per-stage factorisation data.
 #[derive(Debug, Clone)]
 struct Factor {
-    /// `R̂_k`'s Cholesky factor.
+    /// `R̂_k`'s Cholesky factor (its storage is reused by the next factorisation).
     chol: Option<Cholesky<f64, Dyn>>,
     /// `K_k = −R̂⁻¹Ŝ`.
     gain: DMatrix<f64>,
     /// `P_k`.
     p: DMatrix<f64>,
-    // Workspaces.
+    // Workspaces of the factorisation.
     pa: DMatrix<f64>,
     pb: DMatrix<f64>,
+    /// `R̂_k`, `Ŝ_k`, `Q̂_k`.
+    r_hat: DMatrix<f64>,
+    s_hat: DMatrix<f64>,
+    q_hat: DMatrix<f64>,
+    // Workspaces of the solve: `e = P c + p` of the next stage, `r̂` and `q̂`.
+    e: DVector<f64>,
+    r_vec: DVector<f64>,
+    q_vec: DVector<f64>,
 }
 
 /// A stage-structured quadratic problem, its factorisation and its solution.
@@ -153,6 +167,12 @@ impl Riccati {
                 p: DMatrix::zeros(s.nz(), s.nz()),
                 pa: DMatrix::zeros(s.a.nrows(), s.nz()),
                 pb: DMatrix::zeros(s.b.nrows(), s.nv()),
+                r_hat: DMatrix::zeros(s.nv(), s.nv()),
+                s_hat: DMatrix::zeros(s.nv(), s.nz()),
+                q_hat: DMatrix::zeros(s.nz(), s.nz()),
+                e: DVector::zeros(s.a.nrows()),
+                r_vec: DVector::zeros(s.nv()),
+                q_vec: DVector::zeros(s.nz()),
             })
             .collect();
         let nz_n = terminal.h.nrows();
@@ -271,24 +291,31 @@ impl Riccati {
             // PA, PB with the next stage's P.
             next_p.mul_to(&s.a, &mut f.pa);
             next_p.mul_to(&s.b, &mut f.pb);
-            let mut r_hat = s.h.view((nz, nz), (nv, nv)).clone_owned();
-            r_hat.gemm_tr(1.0, &s.b, &f.pb, 1.0);
-            let mut s_hat = s.h.view((nz, 0), (nv, nz)).clone_owned();
-            s_hat.gemm_tr(1.0, &s.b, &f.pa, 1.0);
-            let mut q_hat = s.h.view((0, 0), (nz, nz)).clone_owned();
-            q_hat.gemm_tr(1.0, &s.a, &f.pa, 1.0);
+            f.r_hat.copy_from(&s.h.view((nz, nz), (nv, nv)));
+            f.r_hat.gemm_tr(1.0, &s.b, &f.pb, 1.0);
+            f.s_hat.copy_from(&s.h.view((nz, 0), (nv, nz)));
+            f.s_hat.gemm_tr(1.0, &s.b, &f.pa, 1.0);
+            f.q_hat.copy_from(&s.h.view((0, 0), (nz, nz)));
+            f.q_hat.gemm_tr(1.0, &s.a, &f.pa, 1.0);
             for i in 0..nz {
-                q_hat[(i, i)] += delta * s.shift[i];
+                f.q_hat[(i, i)] += delta * s.shift[i];
             }
             for i in 0..nv {
-                r_hat[(i, i)] += delta * s.shift[nz + i];
+                f.r_hat[(i, i)] += delta * s.shift[nz + i];
             }
             self.deltas[k] = delta;
-            let chol = match positive_definite(r_hat.clone()) {
+            // The last factor's storage, else a new one (the first time, or after a
+            // factorisation that failed and took its storage with it).
+            let storage = f
+                .chol
+                .take()
+                .map_or_else(|| DMatrix::zeros(nv, nv), Cholesky::unpack_dirty);
+            let chol = match positive_definite(&f.r_hat, storage) {
                 Some(chol) => chol,
                 None if correct => {
+                    let r_hat = &f.r_hat;
                     let shift = s.shift.rows(nz, nv);
-                    let least = least_correction(&r_hat, shift.as_slice())
+                    let least = least_correction(r_hat, shift.as_slice())
                         .ok_or(WrongInertia { stage: k })?;
                     // Rounding may leave the first try short: quadrupled until it holds
                     // (twenty times at most).
@@ -297,7 +324,7 @@ impl Riccati {
                         for i in 0..nv {
                             shifted[(i, i)] += delta_k * shift[i];
                         }
-                        positive_definite(shifted).map(|chol| (delta_k, chol))
+                        positive_definite(&shifted, shifted.clone()).map(|chol| (delta_k, chol))
                     });
                     let (delta_k, chol) = held
                         .filter(|(d, _)| *d <= MAX_STAGE_CORRECTION)
@@ -308,12 +335,12 @@ impl Riccati {
                 }
                 None => return Err(WrongInertia { stage: k }),
             };
-            f.gain.copy_from(&s_hat);
+            f.gain.copy_from(&f.s_hat);
             chol.solve_mut(&mut f.gain);
             f.gain.neg_mut();
             // P = Q̂ + Ŝᵀ K, symmetrised.
-            f.p.copy_from(&q_hat);
-            f.p.gemm_tr(1.0, &s_hat, &f.gain, 1.0);
+            f.p.copy_from(&f.q_hat);
+            f.p.gemm_tr(1.0, &f.s_hat, &f.gain, 1.0);
             for i in 0..nz {
                 for j in 0..i {
                     let m = 0.5 * (f.p[(i, j)] + f.p[(j, i)]);
@@ -337,63 +364,67 @@ impl Riccati {
         self.p_vec[n].copy_from(&self.terminal.q);
         for k in (0..n).rev() {
             let s = &self.stages[k];
-            let f = &self.factors[k];
+            let (done, rest) = self.factors.split_at_mut(k + 1);
+            let next_p = rest.first().map_or(&self.p_terminal, |f| &f.p);
+            let f = &mut done[k];
             let (nz, nv) = (s.nz(), s.nv());
-            let next_p = if k + 1 < n {
-                &self.factors[k + 1].p
-            } else {
-                &self.p_terminal
-            };
             // e = P c + p (next stage).
-            let e = &self.p_vec[k + 1] + next_p * &s.c;
+            next_p.mul_to(&s.c, &mut f.e);
+            f.e += &self.p_vec[k + 1];
             // r̂ = q_v + Bᵀ e, q̂ = q_z + Aᵀ e.
-            let mut r_hat = s.q.rows(nz, nv).clone_owned();
-            r_hat.gemv_tr(1.0, &s.b, &e, 1.0);
-            let mut q_hat = s.q.rows(0, nz).clone_owned();
-            q_hat.gemv_tr(1.0, &s.a, &e, 1.0);
+            f.r_vec.copy_from(&s.q.rows(nz, nv));
+            f.r_vec.gemv_tr(1.0, &s.b, &f.e, 1.0);
+            f.q_vec.copy_from(&s.q.rows(0, nz));
+            f.q_vec.gemv_tr(1.0, &s.a, &f.e, 1.0);
             let Some(chol) = f.chol.as_ref() else {
                 return false;
             };
             let ff = &mut self.feedforward[k];
-            ff.copy_from(&r_hat);
+            ff.copy_from(&f.r_vec);
             chol.solve_mut(ff);
             ff.neg_mut();
             // p = q̂ + Kᵀ r̂.
-            q_hat.gemv_tr(1.0, &f.gain, &r_hat, 1.0);
-            self.p_vec[k].copy_from(&q_hat);
+            f.q_vec.gemv_tr(1.0, &f.gain, &f.r_vec, 1.0);
+            self.p_vec[k].copy_from(&f.q_vec);
         }
         self.z[0].fill(0.0);
         for k in 0..n {
             let s = &self.stages[k];
             let f = &self.factors[k];
-            let mut v = &f.gain * &self.z[k] + &self.feedforward[k];
-            std::mem::swap(&mut self.v[k], &mut v);
-            let mut z_next = &s.c + &s.a * &self.z[k];
+            let (done, rest) = self.z.split_at_mut(k + 1);
+            let (z, z_next) = (&done[k], &mut rest[0]);
+            // v = K z + feedforward.
+            f.gain.mul_to(z, &mut self.v[k]);
+            self.v[k] += &self.feedforward[k];
+            // z⁺ = c + A z + B v.
+            s.a.mul_to(z, z_next);
+            *z_next += &s.c;
             z_next.gemv(1.0, &s.b, &self.v[k], 1.0);
             let next_p = if k + 1 < n {
                 &self.factors[k + 1].p
             } else {
                 &self.p_terminal
             };
-            self.mu[k] = next_p * &z_next + &self.p_vec[k + 1];
-            self.z[k + 1] = z_next;
+            // μ = P z⁺ + p (next stage).
+            next_p.mul_to(z_next, &mut self.mu[k]);
+            self.mu[k] += &self.p_vec[k + 1];
         }
         true
     }
 }
 
-/// The Cholesky factor of a positive definite matrix, `None` for any other. A pivot far
-/// below its own row's diagonal is a direction lost in rounding (the row nearly a
-/// combination of the ones before it): treated as not positive definite, like fatrop's
-/// pivot test, but relative to each row, so that the test does not depend on the units
-/// of the variables (a diagonal scaling of the matrix scales each pivot and its diagonal
-/// alike).
-fn positive_definite(m: DMatrix<f64>) -> Option<Cholesky<f64, Dyn>> {
+/// The Cholesky factor of `m`, computed in `storage` (a matrix of `m`'s size, which the
+/// factor keeps), if `m` is positive definite; `None` for any other. A pivot far below its
+/// own row's diagonal is a direction lost in rounding (the row nearly a combination of the
+/// ones before it): treated as not positive definite, like fatrop's pivot test, but
+/// relative to each row, so that the test does not depend on the units of the variables (a
+/// diagonal scaling of the matrix scales each pivot and its diagonal alike).
+fn positive_definite(m: &DMatrix<f64>, mut storage: DMatrix<f64>) -> Option<Cholesky<f64, Dyn>> {
     let n = m.nrows();
-    let diagonal: Vec<f64> = (0..n).map(|i| m[(i, i)]).collect();
-    let chol = Cholesky::new(m)?;
+    storage.copy_from(m);
+    let chol = Cholesky::new(storage)?;
     let l = chol.l_dirty();
-    if (0..n).any(|i| l[(i, i)] * l[(i, i)] <= 1e-14 * diagonal[i]) {
+    if (0..n).any(|i| l[(i, i)] * l[(i, i)] <= 1e-14 * m[(i, i)]) {
         return None;
     }
     Some(chol)
@@ -475,9 +506,10 @@ mod tests {
     fn the_pivot_test_is_independent_of_units() {
         let m = DMatrix::from_row_slice(3, 3, &[2.0, 1.0, 0.0, 1.0, 2.0, 1.0, 0.0, 1.0, 2.0]);
         let d = DMatrix::from_diagonal(&DVector::from_vec(vec![1e-6, 1.0, 1e6]));
-        assert!(positive_definite(&d * &m * &d).is_some());
+        let scaled = &d * &m * &d;
+        assert!(positive_definite(&scaled, scaled.clone()).is_some());
         let singular = DMatrix::from_row_slice(2, 2, &[1.0, 1.0, 1.0, 1.0 + 1e-17]);
-        assert!(positive_definite(singular).is_none());
+        assert!(positive_definite(&singular, singular.clone()).is_none());
     }
 
     /// Negative state curvature under unstable dynamics piles up in the cost to go (×4

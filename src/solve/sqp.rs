@@ -30,13 +30,15 @@
 //! (shifted in time by the caller); from a shifted solution most MPC steps converge in
 //! two iterations.
 
+use super::error::SetupError;
 use super::kkt::{all_finite, l1_violation, residuals_of, Bounds, PointInfo};
 use super::qp::{QpData, QpOutcome, QpSolver};
-use super::{KktResiduals, Solution, SolveStats, SolveStatus, Solver, Start};
+use super::solution_builder::{Ending, SolutionBuilder};
+use super::termination::Termination;
+use super::{KktResiduals, Solution, SolveStatus, Solver, Start};
 use crate::nlp::Nlp;
 use nalgebra::DMatrix;
 use std::ops::Range;
-use std::time::Instant;
 
 /// Tuning of [`Sqp`].
 #[derive(Debug, Clone, PartialEq)]
@@ -166,7 +168,7 @@ impl Sqp {
     }
 
     /// Sizes the buffers and the QP workspace for `nlp` (reused when nothing changed).
-    fn prepare(&mut self, nlp: &dyn Nlp, bounds: &Bounds) -> Result<(), SolveStatus> {
+    fn prepare(&mut self, nlp: &dyn Nlp, bounds: &Bounds) -> Result<(), SetupError> {
         let (n, m) = (nlp.n_vars(), nlp.n_cons());
         let w = &mut self.work;
         let jp = nlp.jacobian_pattern();
@@ -193,7 +195,8 @@ impl Sqp {
         w.block_ranges = blocks.clone();
         w.entry_place.clear();
         for (&r, &c) in hp.rows.iter().zip(&hp.cols) {
-            let b = find_block(&blocks, r, c).ok_or(SolveStatus::InvalidNumber)?;
+            let b = find_block(&blocks, r, c)
+                .ok_or(SetupError::OutsideHessianBlocks { row: r, col: c })?;
             let start = blocks[b].start;
             w.entry_place.push((b, r - start, c - start));
         }
@@ -436,322 +439,399 @@ impl Solver for Sqp {
     }
 
     fn solve(&mut self, nlp: &mut dyn Nlp, start: Start<'_>) -> Solution {
+        let builder = SolutionBuilder::start("sqp", self.options.trace);
         self.work.corrected = 0;
-        let mut solution = self.solve_counted(nlp, start);
-        solution.stats.inertia_corrections = self.work.corrected;
-        solution
+        let bounds = Bounds::of(nlp);
+        let mut point = Point::start(nlp, start, &bounds);
+        let ending = match self.prepare(nlp, &bounds) {
+            Ok(()) => self.run(nlp, &bounds, &mut point),
+            Err(error) => Ending::before_start(error.status()),
+        };
+        let ending = Ending {
+            inertia_corrections: self.work.corrected,
+            ..ending
+        };
+        builder.build(ending, point.x, point.lambda, point.nu)
     }
 }
 
-impl Sqp {
-    /// The solve; the curvature corrections are counted in `work.corrected`.
-    fn solve_counted(&mut self, nlp: &mut dyn Nlp, start: Start<'_>) -> Solution {
-        let clock = Instant::now();
+/// The primal-dual point of a solve.
+struct Point {
+    x: Vec<f64>,
+    /// Constraint multipliers `λ`.
+    lambda: Vec<f64>,
+    /// Bound multipliers `ν`.
+    nu: Vec<f64>,
+}
+
+impl Point {
+    /// The start projected into the bounds, multipliers zero where not given.
+    fn start(nlp: &dyn Nlp, start: Start<'_>, bounds: &Bounds) -> Point {
         let (n, m) = (nlp.n_vars(), nlp.n_cons());
-        let bounds = Bounds::of(nlp);
         let mut x = start.x.to_vec();
         x.resize(n, 0.0);
-        project_into(&mut x, &bounds);
+        project_into(&mut x, bounds);
         let mut lambda = start.multipliers.map_or(vec![0.0; m], <[f64]>::to_vec);
         let mut nu = start
             .bound_multipliers
             .map_or(vec![0.0; n], <[f64]>::to_vec);
         lambda.resize(m, 0.0);
         nu.resize(n, 0.0);
-        let trace = self.options.trace;
-        let finish = |status, iterations, objective, kkt: KktResiduals, x, lambda, nu| {
-            if trace {
-                eprintln!(
-                    "sqp end: {status:?} after {iterations} iterations, KKT {:.1e}",
-                    kkt.max()
-                );
-            }
-            Solution {
-                status,
-                x,
-                multipliers: lambda,
-                bound_multipliers: nu,
-                stats: SolveStats {
-                    iterations,
-                    time_s: clock.elapsed().as_secs_f64(),
-                    objective,
-                    kkt,
-                    inertia_corrections: 0,
-                },
-            }
-        };
-        if let Err(status) = self.prepare(nlp, &bounds) {
-            return finish(status, 0, f64::NAN, KktResiduals::default(), x, lambda, nu);
+        Point { x, lambda, nu }
+    }
+}
+
+/// Watches for a stalled solve: feasible, the objective no longer moving, only the
+/// multipliers of a degenerate point still wandering.
+struct Stall {
+    /// Iterations in a row that looked stalled.
+    run: usize,
+    last_objective: f64,
+}
+
+impl Stall {
+    fn new() -> Stall {
+        Stall {
+            run: 0,
+            last_objective: f64::NAN,
         }
+    }
+
+    /// Records an iteration's objective and residuals; true once `needed` iterations in a
+    /// row have stalled.
+    fn record(&mut self, objective: f64, kkt: &KktResiduals, needed: usize) -> bool {
+        let moved = (objective - self.last_objective).abs() > 1e-10 * objective.abs().max(1e-3);
+        self.run = if !moved && kkt.primal <= 1e-8 && kkt.max() <= 1e-3 {
+            self.run + 1
+        } else {
+            0
+        };
+        self.last_objective = objective;
+        self.run >= needed
+    }
+}
+
+/// The merit at the current point and what makes a change of it negligible.
+#[derive(Debug, Clone, Copy)]
+struct MeritAt {
+    /// `φ = f + μ Σ violation(g)`.
+    merit: f64,
+    /// The ℓ₁ violation of the constraints.
+    violation: f64,
+    /// Changes of the merit below this are rounding.
+    flat_slope: f64,
+}
+
+/// What the trust-region loop of one iteration found.
+struct TrustRegionSearch {
+    /// A trial point was accepted (it is in `work.trial_x`).
+    accepted: bool,
+    /// The merit's slope along the last direction.
+    slope: f64,
+    /// The trust region of the last try (1: none).
+    radius: f64,
+    /// Whether any QP gave a direction.
+    have_direction: bool,
+    /// Why the last QP failed.
+    failure: QpOutcome,
+}
+
+impl Sqp {
+    /// The iterations of a solve from `point`, which they update; `work.corrected` counts
+    /// the curvature corrections.
+    fn run(&mut self, nlp: &mut dyn Nlp, bounds: &Bounds, point: &mut Point) -> Ending {
         let mut options = self.options.clone();
         if let Some(limit) = self.iteration_limit {
             options.max_iterations = options.max_iterations.min(limit);
         }
+        let mut termination = Termination::new(
+            options.tolerance,
+            options.acceptable_tolerance,
+            options.acceptable_iterations,
+            options.max_iterations,
+        );
+        let ending = |status, iterations, objective, kkt| Ending {
+            status,
+            iterations,
+            objective,
+            kkt,
+            inertia_corrections: 0,
+        };
         let mut penalty = 0.0_f64;
-        let mut acceptable_run = 0;
         let mut stalled = false;
-        let mut stall_run = 0;
-        let mut last_objective = f64::NAN;
+        let mut stall = Stall::new();
         self.work.curvature = Curvature::Exact;
         let mut objective = f64::NAN;
         let mut kkt = KktResiduals::default();
         for iteration in 0..=options.max_iterations {
-            let w = &mut self.work;
-            objective = nlp.evaluate_all(
-                &x,
-                1.0,
-                &lambda,
-                &mut w.g,
-                &mut w.gradient,
-                &mut w.jacobian,
-                &mut w.hessian,
-            );
-            let finite = objective.is_finite()
-                && all_finite(&w.g)
-                && all_finite(&w.gradient)
-                && all_finite(&w.jacobian)
-                && all_finite(&w.hessian);
-            if !finite {
-                return finish(
-                    SolveStatus::InvalidNumber,
-                    iteration,
-                    objective,
-                    kkt,
-                    x,
-                    lambda,
-                    nu,
-                );
+            objective = self.evaluate(nlp, point);
+            if !self.evaluation_is_finite(objective) {
+                return ending(SolveStatus::InvalidNumber, iteration, objective, kkt);
             }
-            let point = PointInfo {
-                x: &x,
-                g: &w.g,
-                gradient: &w.gradient,
-                jacobian: &w.jacobian,
-                multipliers: &lambda,
-                bound_multipliers: &nu,
-            };
-            kkt = residuals_of(&point, nlp.jacobian_pattern(), &bounds, &mut w.scratch);
-            acceptable_run = if kkt.max() <= options.acceptable_tolerance {
-                acceptable_run + 1
-            } else {
-                0
-            };
-            if kkt.max() > options.tolerance && acceptable_run > options.acceptable_iterations {
-                return finish(
-                    SolveStatus::Acceptable,
-                    iteration,
-                    objective,
-                    kkt,
-                    x,
-                    lambda,
-                    nu,
-                );
+            kkt = self.residuals(nlp, point, bounds);
+            let stalled_point = stall.record(objective, &kkt, options.acceptable_iterations);
+            if let Some(status) = termination.check(kkt.max(), iteration, stalled_point) {
+                return ending(status, iteration, objective, kkt);
             }
-            // Stalled: feasible, the objective no longer moves, only the multipliers of a
-            // degenerate point still wander.
-            let moved = (objective - last_objective).abs() > 1e-10 * objective.abs().max(1e-3);
-            stall_run = if !moved && kkt.primal <= 1e-8 && kkt.max() <= 1e-3 {
-                stall_run + 1
-            } else {
-                0
-            };
-            last_objective = objective;
-            if kkt.max() > options.tolerance && stall_run >= options.acceptable_iterations {
-                return finish(
-                    SolveStatus::Acceptable,
-                    iteration,
-                    objective,
-                    kkt,
-                    x,
-                    lambda,
-                    nu,
-                );
-            }
-            if kkt.max() <= options.tolerance {
-                return finish(
-                    SolveStatus::Optimal,
-                    iteration,
-                    objective,
-                    kkt,
-                    x,
-                    lambda,
-                    nu,
-                );
-            }
-            if iteration == options.max_iterations {
-                break;
-            }
-            let violation = l1_violation(&self.work.g, &bounds);
+            let violation = l1_violation(&self.work.g, bounds);
             let merit = objective + penalty * violation;
-            // Changes of the merit below this are rounding: 1e-12 relative.
-            let flat_slope = 1e-12 * merit.abs().max(1.0);
-            // Every iteration first tries the plain QP step.
-            let mut radius: f64 = 1.0;
-            // Trust-region loop: a rejected full step shrinks the box on the inputs and
-            // the QP is solved again.
-            let mut accepted = false;
-            let mut alpha = 1.0;
-            let mut slope = 0.0;
-            let mut failure = QpOutcome::Failed;
-            let mut have_direction = false;
-            for _ in 0..options.trust_region_tries {
-                match self.direction(&x, &bounds, radius, violation, flat_slope, &mut penalty) {
-                    Ok(s) => slope = s,
-                    Err(outcome) => {
-                        failure = outcome;
-                        break;
-                    }
-                }
-                have_direction = true;
-                let sufficient = |alpha: f64, trial: f64| {
-                    trial <= merit + options.armijo * alpha * slope.min(0.0)
-                };
-                let step = self.work.step.clone();
-                let full = self.trial_merit(nlp, &x, &step, 1.0, &bounds, penalty);
-                let size = self.scaled_step(&bounds, &step);
-                // A negligible step is taken as it is: the point is (nearly) stationary and
-                // only the QP's multipliers are news; rounding would fail the Armijo test.
-                let negligible = Self::negligible(size, slope, violation, flat_slope);
-                if negligible || sufficient(1.0, full) {
-                    accepted = true;
-                    break;
-                }
-                // Restoration: the NLP may map the trial point onto its constraints (an
-                // optimal-control problem re-simulates its states from the trial inputs).
-                if self
-                    .restored_merit(nlp, &bounds, penalty)
-                    .is_some_and(|m| sufficient(1.0, m))
-                {
-                    accepted = true;
-                    break;
-                }
-                // Second-order correction: linearise the constraints around g(x + d) − J d.
-                let w = &mut self.work;
-                w.corrected_g.copy_from_slice(&w.trial_g);
-                let pattern = nlp.jacobian_pattern();
-                for ((&r, &c), &v) in pattern.rows.iter().zip(&pattern.cols).zip(&w.jacobian) {
-                    w.corrected_g[r] -= v * step[c];
-                }
-                let corrected = w.corrected_g.clone();
-                if self.solve_qp(&x, &bounds, radius, Some(&corrected)) == QpOutcome::Solved {
-                    if let Some(qp) = self.qp.as_ref() {
-                        let soc = qp.step.clone();
-                        let (l, v) = (qp.multipliers.clone(), qp.bound_multipliers.clone());
-                        if sufficient(1.0, self.trial_merit(nlp, &x, &soc, 1.0, &bounds, penalty)) {
-                            self.work.dir_lambda.copy_from_slice(&l);
-                            self.work.dir_nu.copy_from_slice(&v);
-                            accepted = true;
-                            break;
-                        }
-                    }
-                }
-                if size <= 1e-12 {
-                    break;
-                }
-                radius = 0.3 * size;
+            let at = MeritAt {
+                merit,
+                violation,
+                // Changes of the merit below this are rounding: 1e-12 relative.
+                flat_slope: 1e-12 * merit.abs().max(1.0),
+            };
+            let search =
+                self.trust_region_search(nlp, &point.x, bounds, &options, at, &mut penalty);
+            if !search.have_direction {
+                let infeasible = search.failure == QpOutcome::Infeasible;
+                return ending(
+                    termination.stuck(kkt.max(), infeasible),
+                    iteration,
+                    objective,
+                    kkt,
+                );
             }
-            if !have_direction {
-                let status = if kkt.max() <= options.acceptable_tolerance {
-                    SolveStatus::Acceptable
-                } else if failure == QpOutcome::Infeasible {
-                    SolveStatus::Infeasible
-                } else {
-                    SolveStatus::NumericalError
-                };
-                return finish(status, iteration, objective, kkt, x, lambda, nu);
-            }
+            let slope = search.slope;
+            let sufficient =
+                |alpha: f64, trial: f64| trial <= merit + options.armijo * alpha * slope.min(0.0);
             // Backtracking along the last direction when the trust region did not help.
-            let step = self.work.step.clone();
-            while !accepted {
-                alpha *= 0.5;
-                if alpha < options.min_step {
-                    break;
-                }
-                let trial = self.trial_merit(nlp, &x, &step, alpha, &bounds, penalty);
-                accepted = trial <= merit + options.armijo * alpha * slope.min(0.0);
-            }
-            if !accepted {
-                if kkt.max() <= options.acceptable_tolerance {
-                    return finish(
-                        SolveStatus::Acceptable,
-                        iteration,
-                        objective,
-                        kkt,
-                        x,
-                        lambda,
-                        nu,
-                    );
-                }
-                if stalled {
-                    return finish(
-                        SolveStatus::NumericalError,
-                        iteration,
-                        objective,
-                        kkt,
-                        x,
-                        lambda,
-                        nu,
-                    );
+            let alpha = if search.accepted {
+                Some(1.0)
+            } else {
+                self.backtrack(nlp, &point.x, bounds, penalty, options.min_step, sufficient)
+            };
+            let Some(alpha) = alpha else {
+                if kkt.max() <= options.acceptable_tolerance || stalled {
+                    let status = termination.stuck(kkt.max(), false);
+                    return ending(status, iteration, objective, kkt);
                 }
                 // No step, but the QP's multipliers may be all that was missing (a cold
                 // start has none): take them and check again once.
                 stalled = true;
-                lambda.copy_from_slice(&self.work.dir_lambda);
-                nu.copy_from_slice(&self.work.dir_nu);
+                point.lambda.copy_from_slice(&self.work.dir_lambda);
+                point.nu.copy_from_slice(&self.work.dir_nu);
                 continue;
-            }
+            };
             stalled = false;
             if self.work.curvature != Curvature::Exact {
                 self.work.corrected += 1;
             }
-            if trace {
-                eprintln!(
-                    "sqp {iteration:3} f {objective:.12e} kkt {:.1e} {:.1e} {:.1e} alpha {alpha:.3} radius {radius:.2e}{}",
-                    kkt.stationarity, kkt.primal, kkt.complementarity,
-                    match self.work.curvature {
-                        Curvature::Exact => String::new(),
-                        c => format!(" {c:?}"),
-                    }
-                );
+            if options.trace {
+                self.trace(iteration, objective, &kkt, alpha, search.radius);
             }
-            let w = &mut self.work;
-            // After a step cut short (by the trust region or the line search), a bound
-            // multiplier stands only where its bound is active at the new point: the
-            // multipliers of a trust-region box, or of a bound the step stopped short of,
-            // are dropped.
-            if radius < 1.0 || alpha < 1.0 {
-                for (i, v) in w.dir_nu.iter_mut().enumerate() {
-                    let t = w.trial_x[i];
-                    let tolerance = 1e-7 * bounds.scale[i];
-                    let active = if *v > 0.0 {
-                        bounds.x_upper[i] - t <= tolerance
-                    } else {
-                        t - bounds.x_lower[i] <= tolerance
-                    };
-                    if !active {
-                        *v = 0.0;
-                    }
+            self.take_step(point, bounds, search.radius, alpha);
+        }
+        // The last iteration returns inside the loop; this is for the type checker.
+        let status = termination.at_limit(kkt.max());
+        ending(status, options.max_iterations, objective, kkt)
+    }
+
+    /// Evaluates everything at `point` into the work buffers; returns the objective.
+    fn evaluate(&mut self, nlp: &mut dyn Nlp, point: &Point) -> f64 {
+        let w = &mut self.work;
+        nlp.evaluate_all(
+            &point.x,
+            1.0,
+            &point.lambda,
+            &mut w.g,
+            &mut w.gradient,
+            &mut w.jacobian,
+            &mut w.hessian,
+        )
+    }
+
+    /// Whether `objective` and the values [`Sqp::evaluate`] left are all finite.
+    fn evaluation_is_finite(&self, objective: f64) -> bool {
+        let w = &self.work;
+        objective.is_finite()
+            && all_finite(&w.g)
+            && all_finite(&w.gradient)
+            && all_finite(&w.jacobian)
+            && all_finite(&w.hessian)
+    }
+
+    /// The KKT residuals of `point` from the values [`Sqp::evaluate`] left.
+    fn residuals(&mut self, nlp: &dyn Nlp, point: &Point, bounds: &Bounds) -> KktResiduals {
+        let w = &mut self.work;
+        let info = PointInfo {
+            x: &point.x,
+            g: &w.g,
+            gradient: &w.gradient,
+            jacobian: &w.jacobian,
+            multipliers: &point.lambda,
+            bound_multipliers: &point.nu,
+        };
+        residuals_of(&info, nlp.jacobian_pattern(), bounds, &mut w.scratch)
+    }
+
+    /// Every iteration first tries the plain QP step; a rejected full step is tried again
+    /// after the NLP's restoration and with a second-order correction, then the trust
+    /// region (a box on the inputs) shrinks and the QP is solved again.
+    fn trust_region_search(
+        &mut self,
+        nlp: &mut dyn Nlp,
+        x: &[f64],
+        bounds: &Bounds,
+        options: &SqpOptions,
+        at: MeritAt,
+        penalty: &mut f64,
+    ) -> TrustRegionSearch {
+        let mut search = TrustRegionSearch {
+            accepted: false,
+            slope: 0.0,
+            radius: 1.0,
+            have_direction: false,
+            failure: QpOutcome::Failed,
+        };
+        for _ in 0..options.trust_region_tries {
+            match self.direction(
+                x,
+                bounds,
+                search.radius,
+                at.violation,
+                at.flat_slope,
+                penalty,
+            ) {
+                Ok(s) => search.slope = s,
+                Err(outcome) => {
+                    search.failure = outcome;
+                    break;
                 }
             }
-            x.copy_from_slice(&w.trial_x);
-            // Full multiplier steps: the QP's multipliers are the best estimate at hand
-            // whatever the primal step length.
-            lambda.copy_from_slice(&w.dir_lambda);
-            nu.copy_from_slice(&w.dir_nu);
+            search.have_direction = true;
+            let slope = search.slope;
+            let sufficient = |alpha: f64, trial: f64| {
+                trial <= at.merit + options.armijo * alpha * slope.min(0.0)
+            };
+            let step = self.work.step.clone();
+            let full = self.trial_merit(nlp, x, &step, 1.0, bounds, *penalty);
+            let size = self.scaled_step(bounds, &step);
+            // A negligible step is taken as it is: the point is (nearly) stationary and
+            // only the QP's multipliers are news; rounding would fail the Armijo test.
+            let negligible = Self::negligible(size, slope, at.violation, at.flat_slope);
+            if negligible || sufficient(1.0, full) {
+                search.accepted = true;
+                break;
+            }
+            // Restoration: the NLP may map the trial point onto its constraints (an
+            // optimal-control problem re-simulates its states from the trial inputs).
+            if self
+                .restored_merit(nlp, bounds, *penalty)
+                .is_some_and(|m| sufficient(1.0, m))
+            {
+                search.accepted = true;
+                break;
+            }
+            let corrected = self.corrected_merit(nlp, x, bounds, search.radius, &step, *penalty);
+            if corrected.is_some_and(|m| sufficient(1.0, m)) {
+                self.take_qp_multipliers();
+                search.accepted = true;
+                break;
+            }
+            if size <= 1e-12 {
+                break;
+            }
+            search.radius = 0.3 * size;
         }
-        let status = if kkt.max() <= options.acceptable_tolerance {
-            SolveStatus::Acceptable
-        } else {
-            SolveStatus::MaxIterations
-        };
-        finish(
-            status,
-            options.max_iterations,
-            objective,
-            kkt,
-            x,
-            lambda,
-            nu,
-        )
+        search
+    }
+
+    /// Merit of the second-order correction of the rejected step `step` (the constraints
+    /// linearised around `g(x + d) − J d`), `None` when its QP fails; fills `trial_x`,
+    /// `trial_g`, and leaves the correction's multipliers in the QP solver.
+    fn corrected_merit(
+        &mut self,
+        nlp: &mut dyn Nlp,
+        x: &[f64],
+        bounds: &Bounds,
+        radius: f64,
+        step: &[f64],
+        penalty: f64,
+    ) -> Option<f64> {
+        let w = &mut self.work;
+        w.corrected_g.copy_from_slice(&w.trial_g);
+        let pattern = nlp.jacobian_pattern();
+        for ((&r, &c), &v) in pattern.rows.iter().zip(&pattern.cols).zip(&w.jacobian) {
+            w.corrected_g[r] -= v * step[c];
+        }
+        let corrected = w.corrected_g.clone();
+        if self.solve_qp(x, bounds, radius, Some(&corrected)) != QpOutcome::Solved {
+            return None;
+        }
+        let soc = self.qp.as_ref()?.step.clone();
+        Some(self.trial_merit(nlp, x, &soc, 1.0, bounds, penalty))
+    }
+
+    /// The QP solver's multipliers as the direction's.
+    fn take_qp_multipliers(&mut self) {
+        if let Some(qp) = self.qp.as_ref() {
+            self.work.dir_lambda.copy_from_slice(&qp.multipliers);
+            self.work.dir_nu.copy_from_slice(&qp.bound_multipliers);
+        }
+    }
+
+    /// Halves the step along the last direction until `sufficient(α, merit)` holds, down to
+    /// `min_step`; returns the step length taken (the trial point is in `trial_x`).
+    fn backtrack(
+        &mut self,
+        nlp: &mut dyn Nlp,
+        x: &[f64],
+        bounds: &Bounds,
+        penalty: f64,
+        min_step: f64,
+        sufficient: impl Fn(f64, f64) -> bool,
+    ) -> Option<f64> {
+        let step = self.work.step.clone();
+        let mut alpha = 1.0;
+        loop {
+            alpha *= 0.5;
+            if alpha < min_step {
+                return None;
+            }
+            let trial = self.trial_merit(nlp, x, &step, alpha, bounds, penalty);
+            if sufficient(alpha, trial) {
+                return Some(alpha);
+            }
+        }
+    }
+
+    /// Moves `point` to the accepted trial point with the direction's multipliers in full
+    /// (the best estimate at hand whatever the primal step length).
+    fn take_step(&mut self, point: &mut Point, bounds: &Bounds, radius: f64, alpha: f64) {
+        let w = &mut self.work;
+        // After a step cut short (by the trust region or the line search), a bound
+        // multiplier stands only where its bound is active at the new point: the
+        // multipliers of a trust-region box, or of a bound the step stopped short of,
+        // are dropped.
+        if radius < 1.0 || alpha < 1.0 {
+            for (i, v) in w.dir_nu.iter_mut().enumerate() {
+                let t = w.trial_x[i];
+                let tolerance = 1e-7 * bounds.scale[i];
+                let active = if *v > 0.0 {
+                    bounds.x_upper[i] - t <= tolerance
+                } else {
+                    t - bounds.x_lower[i] <= tolerance
+                };
+                if !active {
+                    *v = 0.0;
+                }
+            }
+        }
+        point.x.copy_from_slice(&w.trial_x);
+        point.lambda.copy_from_slice(&w.dir_lambda);
+        point.nu.copy_from_slice(&w.dir_nu);
+    }
+
+    /// One line per iteration on standard error.
+    fn trace(&self, iteration: usize, objective: f64, kkt: &KktResiduals, alpha: f64, radius: f64) {
+        eprintln!(
+            "sqp {iteration:3} f {objective:.12e} kkt {:.1e} {:.1e} {:.1e} alpha {alpha:.3} radius {radius:.2e}{}",
+            kkt.stationarity, kkt.primal, kkt.complementarity,
+            match self.work.curvature {
+                Curvature::Exact => String::new(),
+                c => format!(" {c:?}"),
+            }
+        );
     }
 }

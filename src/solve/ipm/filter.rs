@@ -38,6 +38,12 @@ impl Filter {
         self.theta_min = 1e-4 * theta0.max(1.0);
     }
 
+    /// Makes room for `points` remembered points, so that adding them does not allocate.
+    pub fn reserve(&mut self, points: usize) {
+        self.entries
+            .reserve(points.saturating_sub(self.entries.len()));
+    }
+
     /// Remembers the current point `(θ, φ)` with the margins of the test.
     pub fn add(&mut self, theta: f64, phi: f64) {
         let corner = ((1.0 - GAMMA_THETA) * theta, phi - GAMMA_PHI * theta);

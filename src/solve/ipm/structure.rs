@@ -7,6 +7,7 @@
 //! follows its original through the identity dynamics `copy_{k+1} = v_k[i]`, which is
 //! exact for a Newton step, so stage `k`'s rows and entries stay inside stage `k`.
 
+use super::super::error::SetupError;
 use super::super::riccati::{Riccati, Stage, Terminal};
 use crate::nlp::{Pattern, Stages};
 
@@ -53,27 +54,17 @@ pub(crate) struct StageMap {
     carried: Vec<Vec<(usize, usize)>>,
 }
 
-/// Why a problem does not fit the stage structure it declared.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub(crate) struct NotStaged(pub String);
+/// The stage of every variable and row, as the problem declares them.
+struct Owners {
+    /// Owner stage of each variable.
+    stage_of: Vec<usize>,
+    is_control: Vec<bool>,
+    /// Per row: `Some((stage, index in z_{k+1}))` for a dynamics row.
+    dynamics_rows: Vec<Option<(usize, usize)>>,
+}
 
-impl StageMap {
-    /// The map of a problem with `stages`, its Jacobian and Hessian patterns and `n_cons`
-    /// constraints.
-    pub fn new(
-        stages: &Stages,
-        n_vars: usize,
-        n_cons: usize,
-        jacobian: &Pattern,
-        hessian: &Pattern,
-    ) -> Result<StageMap, NotStaged> {
-        if !stages.is_consistent(n_vars, n_cons) {
-            return Err(NotStaged(
-                "the stage ranges do not cover the variables".into(),
-            ));
-        }
-        let n = stages.horizon();
-        // Owner stage and whether each variable is a control.
+impl Owners {
+    fn of(stages: &Stages, n_vars: usize, n_cons: usize) -> Owners {
         let mut stage_of = vec![0; n_vars];
         let mut is_control = vec![false; n_vars];
         for (k, r) in stages.states.iter().enumerate() {
@@ -93,15 +84,48 @@ impl StageMap {
                 dynamics_rows[r] = Some((k, i));
             }
         }
+        Owners {
+            stage_of,
+            is_control,
+            dynamics_rows,
+        }
+    }
+}
+
+/// How rows and Hessian entries couple the stages.
+struct Couplings {
+    /// Controls that share a row or a Hessian entry with the next stage.
+    carried: Vec<bool>,
+    /// Per row, its Jacobian entries (the `1` on `x_{k+1}` of a dynamics row left out).
+    row_entries: Vec<Vec<usize>>,
+    /// Per row, the stage it lives in.
+    homes: Vec<usize>,
+}
+
+impl Couplings {
+    /// The couplings of the patterns, or why they do not fit the stages: a row or entry
+    /// may reach back one stage only, to a control, which is then carried.
+    fn of(
+        stages: &Stages,
+        owners: &Owners,
+        jacobian: &Pattern,
+        hessian: &Pattern,
+    ) -> Result<Couplings, SetupError> {
+        let Owners {
+            stage_of,
+            is_control,
+            dynamics_rows,
+        } = owners;
+        let n_cons = dynamics_rows.len();
         // Carried controls: those that share a row or a Hessian entry with a later stage.
-        let mut carried_flag = vec![false; n_vars];
-        let mut mark = |vars: &[usize], home: usize| -> Result<(), NotStaged> {
+        let mut carried = vec![false; stage_of.len()];
+        let mut mark = |vars: &[usize], home: usize| -> Result<(), SetupError> {
             for &v in vars {
                 let s = stage_of[v];
                 if s + 1 == home && is_control[v] {
-                    carried_flag[v] = true;
+                    carried[v] = true;
                 } else if s != home {
-                    return Err(NotStaged(format!(
+                    return Err(SetupError::NotStaged(format!(
                         "variable {v} of stage {s} is coupled with stage {home}"
                     )));
                 }
@@ -116,7 +140,7 @@ impl StageMap {
                     continue;
                 }
                 if stage_of[c] > k {
-                    return Err(NotStaged(format!(
+                    return Err(SetupError::NotStaged(format!(
                         "dynamics row {r} has an entry on variable {c} of a later stage"
                     )));
                 }
@@ -137,14 +161,35 @@ impl StageMap {
             let home = stage_of[r].max(stage_of[c]);
             mark(&[r, c], home)?;
         }
-        // Local indices.
+        Ok(Couplings {
+            carried,
+            row_entries,
+            homes,
+        })
+    }
+}
+
+/// The local indices of every variable and the stages' sizes.
+struct Places {
+    places: Vec<Place>,
+    nz: Vec<usize>,
+    nv: Vec<usize>,
+    /// Per stage `k < N`: `(control local index in v_k, copy index in z_{k+1})`.
+    carried: Vec<Vec<(usize, usize)>>,
+}
+
+impl Places {
+    /// Stage `k`'s states, then the copies of stage `k − 1`'s carried controls (`carried`
+    /// per variable), then its controls.
+    fn of(stages: &Stages, carried_flag: &[bool]) -> Places {
+        let n = stages.horizon();
         let mut places = vec![
             Place {
                 stage: 0,
                 local: 0,
                 copy: None
             };
-            n_vars
+            carried_flag.len()
         ];
         let mut nz = vec![0; n + 1];
         let mut nv = vec![0; n];
@@ -181,14 +226,45 @@ impl StageMap {
                 nv[k] = controls.len();
             }
         }
-        let local_in = |v: usize, home: usize| -> usize {
-            let p = places[v];
-            if p.stage == home {
-                p.local
-            } else {
-                p.copy.unwrap_or(p.local)
-            }
-        };
+        Places {
+            places,
+            nz,
+            nv,
+            carried,
+        }
+    }
+
+    /// The local index of variable `v` in stage `home` (its copy where it is carried
+    /// there).
+    fn local_in(&self, v: usize, home: usize) -> usize {
+        let p = self.places[v];
+        if p.stage == home {
+            p.local
+        } else {
+            p.copy.unwrap_or(p.local)
+        }
+    }
+}
+
+impl StageMap {
+    /// The map of a problem with `stages`, its Jacobian and Hessian patterns and `n_cons`
+    /// constraints.
+    pub fn new(
+        stages: &Stages,
+        n_vars: usize,
+        n_cons: usize,
+        jacobian: &Pattern,
+        hessian: &Pattern,
+    ) -> Result<StageMap, SetupError> {
+        if !stages.is_consistent(n_vars, n_cons) {
+            return Err(SetupError::NotStaged(
+                "the stage ranges do not cover the variables".into(),
+            ));
+        }
+        let owners = Owners::of(stages, n_vars, n_cons);
+        let couplings = Couplings::of(stages, &owners, jacobian, hessian)?;
+        let places = Places::of(stages, &couplings.carried);
+        let (dynamics_rows, homes) = (&owners.dynamics_rows, &couplings.homes);
         let mut dynamics_entries = vec![None; jacobian.len()];
         let mut other_entries = vec![None; jacobian.len()];
         for (e, (&r, &c)) in jacobian.rows.iter().zip(&jacobian.cols).enumerate() {
@@ -200,22 +276,24 @@ impl StageMap {
                     dynamics_entries[e] = Some(DynamicsEntry::Stage {
                         stage: k,
                         row: i,
-                        local: local_in(c, k),
+                        local: places.local_in(c, k),
                     });
                 }
-                None => other_entries[e] = Some((homes[r], local_in(c, homes[r]))),
+                None => other_entries[e] = Some((homes[r], places.local_in(c, homes[r]))),
             }
         }
+        let stage_of = &owners.stage_of;
         let hessian_entries = hessian
             .rows
             .iter()
             .zip(&hessian.cols)
             .map(|(&r, &c)| {
                 let home = stage_of[r].max(stage_of[c]);
-                (home, local_in(r, home), local_in(c, home))
+                (home, places.local_in(r, home), places.local_in(c, home))
             })
             .collect();
-        let row_entries = row_entries
+        let row_entries = couplings
+            .row_entries
             .into_iter()
             .enumerate()
             .map(|(r, list)| {
@@ -227,15 +305,15 @@ impl StageMap {
             })
             .collect();
         Ok(StageMap {
-            places,
-            nz,
-            nv,
-            dynamics_rows,
+            places: places.places,
+            nz: places.nz,
+            nv: places.nv,
+            dynamics_rows: owners.dynamics_rows,
             dynamics_entries,
             other_entries,
             hessian_entries,
             row_entries,
-            carried,
+            carried: places.carried,
         })
     }
 

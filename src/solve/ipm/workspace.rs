@@ -1,0 +1,148 @@
+//! The interior point's workspace: everything a problem pattern needs — the KKT system,
+//! the barrier problem, the iterate, the values at it, the directions and the line search's
+//! buffers — sized once ([`Workspace::new`]) and reused by every solve of the pattern, so
+//! that the iterations allocate nothing.
+
+use super::super::error::SetupError;
+use super::super::kkt::{residuals_of, PointInfo};
+use super::super::solution_builder::Ending;
+use super::super::{KktResiduals, SolveStatus, Start};
+use super::iterate::{Eval, Iterate, StartKind};
+use super::kkt_system::KktSystem;
+use super::line_search::LineSearch;
+use super::newton::{Condensation, Directions};
+use super::problem::BarrierProblem;
+use crate::nlp::{Nlp, Pattern};
+
+/// The buffers of one problem pattern; see the [module documentation](self).
+#[derive(Debug, Clone)]
+pub(super) struct Workspace {
+    n: usize,
+    m: usize,
+    /// The patterns the workspace was sized for (an `Ocp` keeps its sizes but changes its
+    /// Hessian pattern when a terminal cost comes or goes).
+    pub jacobian: Pattern,
+    hessian: Pattern,
+    pub kkt: KktSystem,
+    pub problem: BarrierProblem,
+    pub it: Iterate,
+    /// The start's bound multipliers (signed), zero where not given.
+    pub start_bound_multipliers: Vec<f64>,
+    pub ev: Eval,
+    pub condensation: Condensation,
+    pub directions: Directions,
+    /// One entry per variable, for the optimality error.
+    pub scratch: Vec<f64>,
+    pub line_search: LineSearch,
+}
+
+impl Workspace {
+    /// The workspace of `nlp`'s pattern; an error where the problem declares no stages or
+    /// does not fit them.
+    pub fn new(nlp: &dyn Nlp) -> Result<Workspace, SetupError> {
+        let (n, m) = (nlp.n_vars(), nlp.n_cons());
+        let stages = nlp.stages().ok_or(SetupError::NoStages)?;
+        let jacobian = nlp.jacobian_pattern().clone();
+        let hessian = nlp.hessian_pattern().clone();
+        let kkt = KktSystem::new(&stages, n, m, &jacobian, &hessian)?;
+        let is_dynamics = (0..m).map(|r| kkt.is_dynamics(r)).collect();
+        Ok(Workspace {
+            n,
+            m,
+            problem: BarrierProblem::new(n, m, is_dynamics),
+            it: Iterate::zeros(n, m),
+            start_bound_multipliers: vec![0.0; n],
+            ev: Eval::zeros(n, m, jacobian.len(), hessian.len()),
+            condensation: Condensation::zeros(n, m),
+            directions: Directions::zeros(n, m),
+            scratch: vec![0.0; n],
+            line_search: LineSearch::new(n, m),
+            kkt,
+            jacobian,
+            hessian,
+        })
+    }
+
+    /// Whether `nlp` has the sizes and patterns this workspace was made for.
+    pub fn fits(&self, nlp: &dyn Nlp) -> bool {
+        self.n == nlp.n_vars()
+            && self.m == nlp.n_cons()
+            && self.jacobian == *nlp.jacobian_pattern()
+            && self.hessian == *nlp.hessian_pattern()
+    }
+
+    /// Starts a solve of at most `max_iterations` iterations from `start` (of `kind`):
+    /// `nlp`'s bounds read, the buffers of the last solve cleared, the starting iterate
+    /// set. False where the problem is not finite at the start.
+    pub fn start_solve(
+        &mut self,
+        nlp: &mut dyn Nlp,
+        start: &Start<'_>,
+        kind: StartKind,
+        max_iterations: usize,
+    ) -> bool {
+        self.problem.read(nlp);
+        self.kkt.start_solve();
+        self.line_search.start_solve(max_iterations);
+        self.ev.clear();
+        self.directions.clear();
+        let nu = &mut self.start_bound_multipliers;
+        self.it
+            .start(nlp, &self.problem, start, kind, nu, &mut self.ev.c)
+    }
+
+    /// The problem's own feasibility restoration from the iterate
+    /// ([`LineSearch::restore`]); `(θ, φ)` of the iterate join the filter where it
+    /// succeeds.
+    pub fn restore(&mut self, nlp: &mut dyn Nlp, kappa: f64, theta_phi: (f64, f64)) -> bool {
+        self.line_search
+            .restore(nlp, &self.problem, &mut self.it, kappa, theta_phi)
+    }
+
+    /// The solution in ghm's conventions from the iterate, with its objective and KKT
+    /// residuals evaluated on the original bounds (where the status says the problem could
+    /// be evaluated): the point, `λ`, `ν` and how the solve ended.
+    pub fn solution(
+        &mut self,
+        nlp: &mut dyn Nlp,
+        status: SolveStatus,
+        iterations: usize,
+        objective: f64,
+    ) -> (Vec<f64>, Vec<f64>, Vec<f64>, Ending) {
+        let (it, bounds) = (&self.it, &self.problem.bounds);
+        // The relaxed bounds of fixed variables: back onto the true bounds.
+        let x: Vec<f64> = (0..self.n)
+            .map(|i| it.w[i].max(bounds.x_lower[i]).min(bounds.x_upper[i]))
+            .collect();
+        let nu: Vec<f64> = (0..self.n).map(|i| it.zu[i] - it.zl[i]).collect();
+        let lambda = it.lambda.clone();
+        let mut kkt = KktResiduals::default();
+        let mut objective = objective;
+        if status != SolveStatus::InvalidNumber && x.iter().all(|v| v.is_finite()) {
+            let ev = &mut self.ev;
+            ev.clear();
+            self.scratch.fill(0.0);
+            objective = nlp.objective(&x);
+            nlp.constraints(&x, &mut ev.c);
+            nlp.gradient(&x, &mut ev.gradient);
+            nlp.jacobian_values(&x, &mut ev.jacobian);
+            let point = PointInfo {
+                x: &x,
+                g: &ev.c,
+                gradient: &ev.gradient,
+                jacobian: &ev.jacobian,
+                multipliers: &lambda,
+                bound_multipliers: &nu,
+            };
+            kkt = residuals_of(&point, &self.jacobian, bounds, &mut self.scratch);
+        }
+        let ending = Ending {
+            status,
+            iterations,
+            objective,
+            kkt,
+            inertia_corrections: 0,
+        };
+        (x, lambda, nu, ending)
+    }
+}
