@@ -159,16 +159,7 @@ pub fn resume_season_job(
         println!("resuming {} after {} steps", out.display(), taken.len());
     }
     let run = RunFolder::continue_in(out)?;
-    let label = prepared.built.label.clone();
-    let unit = prepared.built.plant.model.objective_unit();
-    let season = season_files(spec, out, prepared, options, &taken);
-    let season = season.and_then(|m| resume::remove_stopped_trajectories(out).map(|()| m));
-    let metrics = run.finish(season)?;
-    Ok(SeasonOutcome {
-        metrics,
-        label,
-        unit,
-    })
+    season_into(spec, out, options, prepared, run, &taken)
 }
 
 /// [`run_season_job`] with `external` deciding the inputs in place of the controller the
@@ -195,15 +186,24 @@ fn run_prepared(
     prepared: Prepared,
 ) -> Result<SeasonOutcome, JobError> {
     let run = RunFolder::claim(out, options.overwrite, Some(json!(spec)))?;
+    season_into(spec, out, options, prepared, run, &StepsTaken::default())
+}
+
+/// A prepared season into the folder `run` holds, after the steps `taken` of a stopped
+/// run; once it is complete, the temporary trajectories stopped runs left there go.
+fn season_into(
+    spec: &RunSpec,
+    out: &Path,
+    options: &JobOptions,
+    prepared: Prepared,
+    run: RunFolder,
+    taken: &StepsTaken,
+) -> Result<SeasonOutcome, JobError> {
     let label = prepared.built.label.clone();
     let unit = prepared.built.plant.model.objective_unit();
-    let metrics = run.finish(season_files(
-        spec,
-        out,
-        prepared,
-        options,
-        &StepsTaken::default(),
-    ))?;
+    let season = season_files(spec, out, prepared, options, taken)
+        .and_then(|m| resume::remove_stopped_trajectories(out).map(|()| m));
+    let metrics = run.finish(season)?;
     Ok(SeasonOutcome {
         metrics,
         label,
