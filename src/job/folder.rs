@@ -62,10 +62,7 @@ pub fn check(dir: &Path, overwrite: bool) -> Result<(), JobError> {
     if found.is_empty() || overwrite {
         return Ok(());
     }
-    let status = std::fs::read_to_string(dir.join("run.json"))
-        .ok()
-        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
-        .and_then(|v| v["status"].as_str().map(String::from));
+    let status = record(dir).and_then(|v| v["status"].as_str().map(String::from));
     let what = match status.as_deref() {
         Some("complete") => "the results of a complete run",
         Some("failed") => "the files of a failed run",
@@ -82,17 +79,20 @@ pub fn check(dir: &Path, overwrite: bool) -> Result<(), JobError> {
 /// What `run.json` in `dir` records: the run's status (`running`, `complete`, `failed`)
 /// and the spec it ran (`null` for runs without one); `None` without a readable `run.json`.
 pub fn recorded(dir: &Path) -> Option<(String, serde_json::Value)> {
-    let text = std::fs::read_to_string(dir.join("run.json")).ok()?;
-    let record: serde_json::Value = serde_json::from_str(&text).ok()?;
+    let record = record(dir)?;
     let status = record["status"].as_str()?.to_string();
     Some((status, record["spec"].clone()))
 }
 
 /// The process that `run.json` in `dir` says held the run; `None` without one.
 pub fn recorded_pid(dir: &Path) -> Option<u32> {
+    u32::try_from(record(dir)?["pid"].as_u64()?).ok()
+}
+
+/// `run.json` in `dir`, parsed; `None` without a readable one.
+fn record(dir: &Path) -> Option<serde_json::Value> {
     let text = std::fs::read_to_string(dir.join("run.json")).ok()?;
-    let record: serde_json::Value = serde_json::from_str(&text).ok()?;
-    u32::try_from(record["pid"].as_u64()?).ok()
+    serde_json::from_str(&text).ok()
 }
 
 impl RunFolder {
