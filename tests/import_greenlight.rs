@@ -4,30 +4,17 @@
 //! at 0) equal GreenLight's own (`tests/greenlight/katzin_2021_derivatives.json`, made by
 //! `tests/greenlight/make_derivative_fixture.py`) within 1e-9 relative.
 //!
-//! The GreenLight model folder is `$GHM_GREENLIGHT_MODELS`, else
-//! `/work/venv-gl/lib/python3.11/site-packages/greenlight/models`; without it the tests
-//! print that they skipped and why.
+//! The GreenLight model folder is found by `tests/common/greenlight.rs`; without it the
+//! tests print that they skipped and why.
+
+mod common;
 
 use ghm::import::greenlight::{convert, Options, DEFAULT_INPUTS};
 use std::path::PathBuf;
 
-const DEFAULT_MODELS: &str = "/work/venv-gl/lib/python3.11/site-packages/greenlight/models";
-
 /// GreenLight's model folder, or `None` (with the reason printed).
 fn models() -> Option<PathBuf> {
-    let dir = std::env::var_os("GHM_GREENLIGHT_MODELS")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(DEFAULT_MODELS));
-    let main = dir.join("katzin_2021/definition/main_katzin_2021.json");
-    if main.is_file() {
-        Some(dir)
-    } else {
-        eprintln!(
-            "SKIPPED: GreenLight's model files not found ({} missing); install `greenlight==2.0.5` and set GHM_GREENLIGHT_MODELS to its `greenlight/models` folder to run this test",
-            main.display()
-        );
-        None
-    }
+    common::greenlight::models_or_skip("the GreenLight import test")
 }
 
 #[derive(serde::Deserialize)]
