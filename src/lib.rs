@@ -31,6 +31,7 @@
 //! assert_eq!(result.metrics.solve.failed_solves, 0);
 //! ```
 pub mod agent;
+pub mod choice;
 pub mod cli;
 pub mod control;
 pub mod embed;

@@ -586,3 +586,30 @@ fn the_spec_types_know_no_command_line() {
         "these files use clap; flags belong to src/cli: {found:?}"
     );
 }
+
+#[test]
+fn only_control_knows_warm_starts() {
+    // How MPC restarts from its last solution is MPC's policy: declared once, in
+    // `control`, and read by its names everywhere else; a back-end only says whether it
+    // restarts from multipliers (`Solver::restarts_from_multipliers`).
+    let src = root().join("src");
+    let mut declared = Vec::new();
+    let mut named_by_solvers = Vec::new();
+    for module in top_level_modules(&src) {
+        for path in module_files(&src, &module) {
+            let code = code_only(&std::fs::read_to_string(&path).unwrap());
+            let file = path.strip_prefix(root()).unwrap().display().to_string();
+            if code.contains("enum WarmStart") {
+                declared.push(file.clone());
+            }
+            if module == "solve" && code.contains("WarmStart") {
+                named_by_solvers.push(file);
+            }
+        }
+    }
+    assert_eq!(declared, ["src/control/warm_start.rs"]);
+    assert!(
+        named_by_solvers.is_empty(),
+        "the back-ends name MPC's warm start: {named_by_solvers:?}"
+    );
+}

@@ -3,15 +3,13 @@
 //! network) solved as it is, and every status it can end with, each on a problem built to
 //! end that way.
 
-use ghm::control::{Mpc, ValueFile, ValueTerminalCost};
+use ghm::control::{Mpc, ValueFile, ValueTerminalCost, WarmStart};
 use ghm::model::Plant;
 use ghm::nlp::{Nlp, Ocp, Pattern, Stages, TerminalCost};
 use ghm::sim::metrics::Metrics;
 use ghm::sim::season::{run_season, SeasonConfig, StepLog};
 use ghm::sim::weather::Weather;
-use ghm::solve::{
-    kkt_residuals, Ipm, IpmOptions, MuStrategy, SolveStatus, Solver, Sqp, Start, WarmStart,
-};
+use ghm::solve::{kkt_residuals, Ipm, IpmOptions, MuStrategy, SolveStatus, Solver, Sqp, Start};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -209,8 +207,8 @@ impl Solver for Recorded {
     fn set_correction_limit(&mut self, limit: Option<usize>) {
         self.inner.set_correction_limit(limit.map(|_| self.forced));
     }
-    fn warm_start(&self) -> WarmStart {
-        self.inner.warm_start()
+    fn restarts_from_multipliers(&self) -> bool {
+        self.inner.restarts_from_multipliers()
     }
 }
 

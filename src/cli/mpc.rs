@@ -2,7 +2,7 @@
 
 use crate::cli::args::{choice, FolderArgs, PlantArgs, WeatherArgs};
 use crate::cli::CliError;
-use crate::job::{BandsChoice, ControllerSpec, MpcSpec, RunSpec, SolverChoice, WarmStartChoice};
+use crate::job::{BandsChoice, ControllerSpec, MpcSpec, RunSpec, SolverChoice, WarmStart};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -34,8 +34,8 @@ pub struct NlpArgs {
     pub solver: SolverChoice,
     /// How each step restarts from the last one's solution (default: `primal` with `ipm`,
     /// `primal-dual` with `sqp` and `ipopt`).
-    #[arg(long, value_parser = choice::<WarmStartChoice>())]
-    pub warm_start: Option<WarmStartChoice>,
+    #[arg(long, value_parser = choice::<WarmStart>())]
+    pub warm_start: Option<WarmStart>,
     /// Soft-band bounds to plan with.
     #[arg(long, value_parser = choice::<BandsChoice>(), default_value_t = MpcSpec::default().bands)]
     pub bands: BandsChoice,

@@ -10,6 +10,7 @@ pub mod rlmpc;
 pub mod rules;
 pub mod stepper;
 pub mod value;
+pub mod warm_start;
 
 pub use expert::Expert;
 pub use mpc::{Guidance, Mpc};
@@ -18,10 +19,9 @@ pub use rlmpc::{terminal_region, RlGuidance, RlMpcOptions, TerminalCostForm};
 pub use rules::Rules;
 pub use stepper::{LimitPolicy, StepDecision, StepError, StepRequest, SteppedController, Stepper};
 pub use value::{taylor_terminal_cost, ValueFile, ValueTerminalCost};
+pub use warm_start::WarmStart;
 
 use crate::solve::SolveStatus;
-use serde::{Deserialize, Serialize};
-use std::fmt;
 use thiserror::Error;
 
 /// What a controller sees at step `k`.
@@ -64,12 +64,12 @@ impl StepRecord {
     /// The status as the logs spell it: the solver's snake-case name, or `""` without a
     /// solver.
     pub fn status_name(&self) -> &'static str {
-        self.status.map_or("", SolveStatus::as_str)
+        self.status.map_or("", SolveStatus::name)
     }
 
     /// The fallback as the logs spell it (`cold_start`, ...), if one was taken.
     pub fn fallback_name(&self) -> Option<&'static str> {
-        self.fallback.map(Fallback::as_str)
+        self.fallback.map(Fallback::name)
     }
 
     /// Whether the step's solve failed: a solver status that is neither optimal nor
@@ -89,49 +89,18 @@ impl StepRecord {
     }
 }
 
-/// Which fallback produced a step's input when the controller's first choice failed (in
-/// the order MPC tries them after its first solve).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Fallback {
-    /// The warm-started solve failed and a cold start succeeded.
-    ColdStart,
-    /// No solve succeeded: the previous plan, shifted by the steps since it was made.
-    ShiftedPlan,
-    /// No solve succeeded and no plan was left: the guide's own input.
-    GuideInput,
-    /// Nothing else was left: the previous input, held.
-    HoldInput,
-}
-
-impl Fallback {
-    /// The snake-case name used in logs and JSON (`cold_start`, `shifted_plan`,
-    /// `guide_input`, `hold_input`).
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Fallback::ColdStart => "cold_start",
-            Fallback::ShiftedPlan => "shifted_plan",
-            Fallback::GuideInput => "guide_input",
-            Fallback::HoldInput => "hold_input",
-        }
-    }
-
-    /// The fallback a log names ([`as_str`](Self::as_str)'s inverse).
-    pub fn from_name(name: &str) -> Option<Fallback> {
-        [
-            Fallback::ColdStart,
-            Fallback::ShiftedPlan,
-            Fallback::GuideInput,
-            Fallback::HoldInput,
-        ]
-        .into_iter()
-        .find(|f| f.as_str() == name)
-    }
-}
-
-impl fmt::Display for Fallback {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.as_str())
+crate::choice! {
+    /// Which fallback produced a step's input when the controller's first choice failed (in
+    /// the order MPC tries them after its first solve).
+    pub enum Fallback {
+        /// The warm-started solve failed and a cold start succeeded.
+        ColdStart = "cold_start",
+        /// No solve succeeded: the previous plan, shifted by the steps since it was made.
+        ShiftedPlan = "shifted_plan",
+        /// No solve succeeded and no plan was left: the guide's own input.
+        GuideInput = "guide_input",
+        /// Nothing else was left: the previous input, held.
+        HoldInput = "hold_input",
     }
 }
 

@@ -2,7 +2,7 @@
 //! over the horizon from the measured state and apply the first input.
 //!
 //! The solve starts from the previous solution shifted by one step, as the back-end prefers
-//! ([`Solver::warm_start`], [`Mpc::warm_start`]): the interior point from the shifted primal
+//! ([`WarmStart::preferred_by`], [`Mpc::warm_start`]): the interior point from the shifted primal
 //! point with a fresh barrier (and, under guidance, the shifted constraint multipliers;
 //! [`WarmStart::Primal`]: six to twelve iterations every step, none much longer; with the
 //! multipliers for plain MPC too and the bare plan where the Hessian keeps needing
@@ -27,10 +27,12 @@
 //! and writes the starting point; its own input is one more fallback, before the held
 //! input.
 
-use super::{ControlError, Controller, Decision, Fallback, Observation, Plan, StepRecord};
+use super::{
+    ControlError, Controller, Decision, Fallback, Observation, Plan, StepRecord, WarmStart,
+};
 use crate::model::Plant;
 use crate::nlp::{Bands, Nlp, Ocp, OcpError};
-use crate::solve::{Solution, Solver, Start, WarmStart};
+use crate::solve::{Solution, Solver, Start};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -70,8 +72,8 @@ pub struct Mpc {
     start_x: Vec<f64>,
     start_lambda: Vec<f64>,
     start_nu: Vec<f64>,
-    /// How each step restarts from the previous one's solution (default: the back-end's
-    /// [`Solver::warm_start`]).
+    /// How each step restarts from the previous one's solution (default: the one the
+    /// back-end prefers, [`WarmStart::preferred_by`]).
     pub warm_start: WarmStart,
     /// Iteration cap of a primal-dual warm solve before the cold start takes over.
     pub warm_iteration_limit: Option<usize>,
@@ -96,7 +98,7 @@ impl Mpc {
             start_x: vec![0.0; n],
             start_lambda: vec![0.0; m],
             start_nu: vec![0.0; n],
-            warm_start: solver.warm_start(),
+            warm_start: WarmStart::preferred_by(solver.as_ref()),
             warm_iteration_limit: Some(solver.warm_iteration_budget()),
             solver,
             guidance: None,

@@ -27,7 +27,7 @@ pub fn make_mpc(
         .with_bands(bands)
         .map_err(fail)?;
     if let Some(choice) = spec.warm_start {
-        mpc.warm_start = choice.restart();
+        mpc.warm_start = choice;
     }
     Ok(mpc)
 }

@@ -12,7 +12,6 @@
 //! job can be recognised and never run again.
 
 pub mod build;
-mod choice;
 pub mod folder;
 pub mod output;
 pub mod resume;
@@ -22,8 +21,9 @@ pub mod train;
 pub mod value;
 mod weather;
 
+pub use crate::choice::Choice;
+pub use crate::control::WarmStart;
 pub use build::{load_model, ControllerFiles};
-pub use choice::Choice;
 pub use folder::RunFolder;
 pub use season::{
     build_controller, build_controller_with, print_metrics, resume_season_job,
@@ -32,7 +32,7 @@ pub use season::{
 };
 pub use spec::{
     BandsChoice, ControllerKind, ControllerSpec, CostForm, GuideChoice, InputsSpec, MpcSpec,
-    OptimumSpec, PlantSpec, RlmpcSpec, RunSpec, SolverChoice, SolverSpec, Variant, WarmStartChoice,
+    OptimumSpec, PlantSpec, RlmpcSpec, RunSpec, SolverChoice, SolverSpec, Variant,
 };
 pub use weather::WeatherSpec;
 

@@ -14,7 +14,7 @@ use crate::job::output::{figure, model_hash, plot_trajectory, write_summary, Tra
 use crate::job::resume;
 use crate::job::spec::{
     ControllerSpec, CostForm, MpcSpec, OptimumSpec, PlantSpec, RlmpcSpec, RunSpec, SolverChoice,
-    SolverSpec, Variant, WarmStartChoice,
+    SolverSpec, Variant,
 };
 use crate::job::JobError;
 use crate::model::Plant;
@@ -376,7 +376,7 @@ fn build_mpc(
         "horizon_steps": horizon,
         "horizon_h": horizon as f64 * plant.model.sample_period / 3600.0,
         "bands": bands_name(bands),
-        "warm_start": WarmStartChoice::from(mpc.warm_start),
+        "warm_start": mpc.warm_start,
     });
     Ok((mpc, horizon, extra))
 }

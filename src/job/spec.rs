@@ -3,6 +3,7 @@
 //! their flags onto them (`cli`); the types know no command line. Each default is stated
 //! once, in a `Default` impl, and every door reads it from there.
 
+use crate::control::WarmStart;
 use crate::job::weather::WeatherSpec;
 use crate::job::JobError;
 use serde::{Deserialize, Serialize};
@@ -216,7 +217,7 @@ pub struct MpcSpec {
     pub solver: SolverChoice,
     /// How each step restarts from the last one's solution; `None`: the back-end's choice.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub warm_start: Option<WarmStartChoice>,
+    pub warm_start: Option<WarmStart>,
     /// The soft-band bounds to plan with.
     #[serde(default)]
     pub bands: BandsChoice,
@@ -420,47 +421,6 @@ crate::choice! {
 }
 
 crate::choice! {
-    /// How each MPC step restarts the back-end from the last step's solution, shifted by
-    /// one step ([`crate::solve::WarmStart`]).
-    pub enum WarmStartChoice {
-        /// The shifted primal point (under guidance with the constraint multipliers); bound
-        /// multipliers and barrier afresh (the interior point's default: six to twelve
-        /// iterations every step, none much longer).
-        Primal = "primal",
-        /// The shifted primal point and multipliers (SQP's and IPOPT's default; the
-        /// interior point's fewest iterations in the median, 20–40 where the active set
-        /// changes).
-        PrimalDual = "primal-dual",
-        /// The shifted primal point with its constraint multipliers for plain MPC too,
-        /// again without them where the Hessian keeps needing corrections (the interior
-        /// point: a quarter fewer iterations than `primal`).
-        PrimalMultipliers = "primal-multipliers",
-    }
-}
-
-impl WarmStartChoice {
-    /// The solver layer's restart.
-    pub fn restart(self) -> crate::solve::WarmStart {
-        match self {
-            WarmStartChoice::Primal => crate::solve::WarmStart::Primal,
-            WarmStartChoice::PrimalDual => crate::solve::WarmStart::PrimalDual,
-            WarmStartChoice::PrimalMultipliers => crate::solve::WarmStart::PrimalMultipliers,
-        }
-    }
-}
-
-impl From<crate::solve::WarmStart> for WarmStartChoice {
-    /// The choice that names a restart (in `summary.json`, by the same names as the spec).
-    fn from(restart: crate::solve::WarmStart) -> Self {
-        match restart {
-            crate::solve::WarmStart::Primal => WarmStartChoice::Primal,
-            crate::solve::WarmStart::PrimalDual => WarmStartChoice::PrimalDual,
-            crate::solve::WarmStart::PrimalMultipliers => WarmStartChoice::PrimalMultipliers,
-        }
-    }
-}
-
-crate::choice! {
     /// Which bounds of the soft bands MPC plans with.
     pub enum BandsChoice {
         /// The model file's `plan` bounds when the plant is uncertain (`uncertainty` > 0),
@@ -570,7 +530,7 @@ mod tests {
             mpc: MpcSpec {
                 horizon: "2h".into(),
                 solver: SolverChoice::Sqp,
-                warm_start: Some(WarmStartChoice::PrimalDual),
+                warm_start: Some(WarmStart::PrimalDual),
                 bands: BandsChoice::Planning,
             },
             epsilon: 0.1,

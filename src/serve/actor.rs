@@ -302,7 +302,7 @@ impl Actor {
             Ok(r) if r.from_journal => self.metrics.journal_answer(),
             Ok(r) => self
                 .metrics
-                .decided(r.solve_time_ms / 1e3, r.fallback.map(Fallback::as_str)),
+                .decided(r.solve_time_ms / 1e3, r.fallback.map(Fallback::name)),
             Err(e) if decided && e.status == StatusCode::INTERNAL_SERVER_ERROR => {
                 self.metrics.controller_failed()
             }
@@ -560,8 +560,8 @@ fn describe(o: &Outcome) -> String {
             "input {:?} ({} iterations, status `{}`, fallback {:?})",
             a.input,
             a.iterations,
-            a.status.map_or("", SolveStatus::as_str),
-            a.fallback.map(Fallback::as_str)
+            a.status.map_or("", SolveStatus::name),
+            a.fallback.map(Fallback::name)
         ),
         Outcome::Failed(m) => format!("a failure ({m})"),
     }

@@ -155,7 +155,7 @@ mod status_name {
     use serde::{de, Deserialize, Deserializer, Serializer};
 
     pub fn serialize<S: Serializer>(status: &Option<SolveStatus>, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(status.map_or("", SolveStatus::as_str))
+        s.serialize_str(status.map_or("", SolveStatus::name))
     }
 
     pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<SolveStatus>, D::Error> {

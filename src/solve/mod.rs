@@ -37,63 +37,30 @@ pub use sqp::{Sqp, SqpOptions};
 pub use ipopt::{Ipopt, IpoptOptions};
 
 use crate::nlp::Nlp;
-use serde::{Deserialize, Serialize};
-use std::fmt;
+use serde::Serialize;
 
-/// How a solve ended.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum SolveStatus {
-    /// KKT conditions hold to the requested tolerance.
-    Optimal,
-    /// KKT conditions hold to the looser, acceptable tolerance.
-    Acceptable,
-    /// The iteration limit (or a limit on Hessian corrections) was reached first.
-    MaxIterations,
-    /// The (linearised) constraints could not be satisfied.
-    Infeasible,
-    /// The line search or the sub-problem solver could not make progress.
-    NumericalError,
-    /// A function value or derivative was not finite.
-    InvalidNumber,
+crate::choice! {
+    /// How a solve ended.
+    pub enum SolveStatus {
+        /// KKT conditions hold to the requested tolerance.
+        Optimal = "optimal",
+        /// KKT conditions hold to the looser, acceptable tolerance.
+        Acceptable = "acceptable",
+        /// The iteration limit (or a limit on Hessian corrections) was reached first.
+        MaxIterations = "max_iterations",
+        /// The (linearised) constraints could not be satisfied.
+        Infeasible = "infeasible",
+        /// The line search or the sub-problem solver could not make progress.
+        NumericalError = "numerical_error",
+        /// A function value or derivative was not finite.
+        InvalidNumber = "invalid_number",
+    }
 }
 
 impl SolveStatus {
     /// Optimal or acceptable: the solution may be applied.
     pub fn is_success(self) -> bool {
         matches!(self, SolveStatus::Optimal | SolveStatus::Acceptable)
-    }
-
-    /// The snake-case name used in logs and JSON (`optimal`, `max_iterations`, ...).
-    pub fn as_str(self) -> &'static str {
-        match self {
-            SolveStatus::Optimal => "optimal",
-            SolveStatus::Acceptable => "acceptable",
-            SolveStatus::MaxIterations => "max_iterations",
-            SolveStatus::Infeasible => "infeasible",
-            SolveStatus::NumericalError => "numerical_error",
-            SolveStatus::InvalidNumber => "invalid_number",
-        }
-    }
-
-    /// The status a log names ([`as_str`](Self::as_str)'s inverse).
-    pub fn from_name(name: &str) -> Option<SolveStatus> {
-        [
-            SolveStatus::Optimal,
-            SolveStatus::Acceptable,
-            SolveStatus::MaxIterations,
-            SolveStatus::Infeasible,
-            SolveStatus::NumericalError,
-            SolveStatus::InvalidNumber,
-        ]
-        .into_iter()
-        .find(|s| s.as_str() == name)
-    }
-}
-
-impl fmt::Display for SolveStatus {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.as_str())
     }
 }
 
@@ -155,8 +122,8 @@ impl<'a> Start<'a> {
         }
     }
 
-    /// An earlier solution's primal point, shifted in time, without its multipliers: the
-    /// [`WarmStart::Primal`] restart.
+    /// An earlier solution's primal point, shifted in time, without its multipliers (MPC's
+    /// `primal` restart).
     pub fn shifted(x: &'a [f64]) -> Start<'a> {
         Start {
             shifted: true,
@@ -177,8 +144,8 @@ impl<'a> Start<'a> {
         }
     }
 
-    /// A full primal-dual point, typically an earlier solution shifted in time: the
-    /// [`WarmStart::PrimalDual`] restart.
+    /// A full primal-dual point, typically an earlier solution shifted in time (MPC's
+    /// `primal-dual` restart).
     pub fn warm(x: &'a [f64], multipliers: &'a [f64], bound_multipliers: &'a [f64]) -> Start<'a> {
         Start {
             x,
@@ -187,30 +154,6 @@ impl<'a> Start<'a> {
             shifted: true,
         }
     }
-}
-
-/// How an MPC step restarts a back-end from the previous step's solution, shifted by one
-/// step.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum WarmStart {
-    /// The shifted primal point and multipliers ([`Start::warm`]). SQP converges in two or
-    /// three iterations from it. An interior point starts from a tiny barrier parameter:
-    /// the fewest iterations while the active set stays, but 20–40 iterations at
-    /// fraction-to-the-boundary steps of 1e-4 … 1e-1 where it changes.
-    PrimalDual,
-    /// The shifted primal point ([`Start::shifted`]; under guidance with the constraint
-    /// multipliers, [`Start::with_multipliers`]), the barrier parameter and the bound
-    /// multipliers started afresh (fatrop's way): an interior point takes six to twelve
-    /// iterations every step, and a worst step within a few times the median.
-    Primal,
-    /// [`WarmStart::Primal`] with the constraint multipliers for plain MPC too; a solve
-    /// whose Hessian needs three corrections ([`Solver::set_correction_limit`]) is started
-    /// again from the shifted point alone. On the paper study's 372 MPC seasons: 7.06
-    /// iterations a step instead of 9.41, no fallback, the longest step 9.9× its season's
-    /// median instead of 8.1× (69 iterations instead of 89). Not the default: RL-guided
-    /// MPC's cost is budgeted against plain MPC's (at most 1.5× a step), and against this
-    /// faster MPC it is 1.5–1.9× at 1–3 h (`docs/benchmarks.md`).
-    PrimalMultipliers,
 }
 
 /// A back-end that solves an [`Nlp`].
@@ -232,8 +175,11 @@ pub trait Solver {
     fn warm_iteration_budget(&self) -> usize {
         15
     }
-    /// How MPC should restart this back-end from the previous step's solution.
-    fn warm_start(&self) -> WarmStart {
-        WarmStart::PrimalDual
+    /// Whether this back-end restarts fastest from an earlier solution's point and all
+    /// its multipliers (SQP, IPOPT), rather than from the point alone with multipliers and
+    /// barrier of its own (the interior point): what MPC's
+    /// [`WarmStart`](crate::control::WarmStart) defaults to.
+    fn restarts_from_multipliers(&self) -> bool {
+        true
     }
 }

@@ -37,7 +37,7 @@
 //!   monotone rule as its safeguard; it begins at [`IpmOptions::initial_mu`] with the
 //!   point pushed [`IpmOptions::bound_push`] inside its bounds, or
 //!   [`IpmOptions::shifted_push`] from an earlier solution ([`Start::shifted`], MPC's
-//!   default restart, [`WarmStart::Primal`]; with its constraint multipliers, as RL-guided
+//!   default restart, `primal`; with its constraint multipliers, as RL-guided
 //!   MPC restarts, a soft band's slack by [`IpmOptions::shifted_slack_push`]). A warm
 //!   start (all multipliers given) keeps IPOPT's monotone rule (`μ ← max(ε/10, min(μ/5,
 //!   μ^1.5))` once the barrier problem is solved to `10 μ`) from
@@ -79,7 +79,7 @@ pub use options::{IpmOptions, MuStrategy};
 
 use super::solution_builder::{Ending, SolutionBuilder};
 use super::termination::Termination;
-use super::{Solution, SolveStatus, Solver, Start, WarmStart};
+use super::{Solution, SolveStatus, Solver, Start};
 use crate::nlp::Nlp;
 use barrier::{average_complementarity, Barrier};
 use filter::Accepted;
@@ -151,9 +151,9 @@ impl Solver for Ipm {
         40
     }
 
-    /// The shifted primal point with a fresh barrier: see [`WarmStart`].
-    fn warm_start(&self) -> WarmStart {
-        WarmStart::Primal
+    /// No: the shifted primal point with a fresh barrier (MPC's `primal` restart).
+    fn restarts_from_multipliers(&self) -> bool {
+        false
     }
 
     fn solve(&mut self, nlp: &mut dyn Nlp, start: Start<'_>) -> Solution {

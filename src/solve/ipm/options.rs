@@ -40,7 +40,7 @@ pub struct IpmOptions {
     /// start lowered the median from 11 to 7 iterations but left the longest steps where
     /// they were (up to 94, inertia-corrected crawls), 13.4× the median in the worst
     /// season, unless a solve that needs three corrections starts again from the bare
-    /// plan ([`WarmStart::PrimalMultipliers`](crate::solve::WarmStart::PrimalMultipliers)).
+    /// plan ([`WarmStart::PrimalMultipliers`](crate::control::WarmStart::PrimalMultipliers)).
     ///
     /// [`Start::with_multipliers`]: crate::solve::Start::with_multipliers
     pub shifted_slack_push: f64,

@@ -1,8 +1,9 @@
-//! Settings with a fixed set of named values (the back-end, the guide, the bands, ...):
-//! each value's name, as spec files, flags and Python spell it, and its help, the
-//! variant's doc comment, are stated once, in the [`choice!`](crate::choice) declaration.
-//! The command line builds its parsers from [`Choice`], so the spec types need no
-//! command-line library.
+//! Settings with a fixed set of named values (the back-end, the guide, the bands, MPC's
+//! warm start, a solve's status, ...): each value's name, as spec files, flags, logs and
+//! Python spell it, and its help, the variant's doc comment, are stated once, in the
+//! [`choice!`](crate::choice!) declaration, wherever the enum lives. The command line
+//! builds its parsers from [`Choice`], so the spec types need no command-line library.
+//! This module uses no other: any layer may declare its settings with it.
 
 /// A setting with a fixed set of named values.
 pub trait Choice: Copy + Eq + Sized + Send + Sync + 'static {
@@ -21,7 +22,7 @@ pub trait Choice: Copy + Eq + Sized + Send + Sync + 'static {
     }
 }
 
-/// Declares a [`Choice`](crate::job::Choice) enum: each variant with its doc comment and
+/// Declares a [`Choice`](crate::choice::Choice) enum: each variant with its doc comment and
 /// the name it is spelt by (`Ipm = "ipm"`), and after the enum `default Ipm` where it has a
 /// default. Serialised by that name; `Display` writes it.
 #[macro_export]
@@ -64,11 +65,11 @@ macro_rules! choice {
 
             /// The value called `name`.
             pub fn from_name(name: &str) -> Option<Self> {
-                <$name as $crate::job::Choice>::from_name(name)
+                <$name as $crate::choice::Choice>::from_name(name)
             }
         }
 
-        impl $crate::job::Choice for $name {
+        impl $crate::choice::Choice for $name {
             const ALL: &'static [Self] = &[$($name::$variant),+];
 
             fn name(self) -> &'static str {
@@ -96,7 +97,7 @@ macro_rules! choice {
             fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
                 const NAMES: &[&str] = &[$($text),+];
                 let text = <std::borrow::Cow<'de, str>>::deserialize(deserializer)?;
-                <$name as $crate::job::Choice>::from_name(&text)
+                <$name as $crate::choice::Choice>::from_name(&text)
                     .ok_or_else(|| serde::de::Error::unknown_variant(&text, NAMES))
             }
         }

@@ -1,0 +1,38 @@
+//! How an MPC step restarts its back-end from the previous step's solution, shifted by one
+//! step: MPC's policy, stated once here and read by the job layer's specs, the command
+//! line, study files and Python by its names. The back-end only says which restart suits it
+//! ([`Solver::restarts_from_multipliers`]).
+
+use crate::solve::Solver;
+
+crate::choice! {
+    /// How each MPC step restarts the back-end from the last step's solution, shifted by
+    /// one step.
+    pub enum WarmStart {
+        /// The shifted primal point (under guidance with the constraint multipliers); bound
+        /// multipliers and barrier afresh (fatrop's way, and the interior point's default:
+        /// six to twelve iterations every step, none much longer).
+        Primal = "primal",
+        /// The shifted primal point and multipliers (SQP's and IPOPT's default: two or
+        /// three SQP iterations; the interior point's fewest iterations in the median, from
+        /// a tiny barrier parameter, but 20–40 where the active set changes).
+        PrimalDual = "primal-dual",
+        /// The shifted primal point with its constraint multipliers for plain MPC too,
+        /// again from the point alone where the Hessian needs three corrections (the
+        /// interior point: a quarter fewer iterations than `primal`; docs/benchmarks.md).
+        PrimalMultipliers = "primal-multipliers",
+    }
+}
+
+impl WarmStart {
+    /// The restart that suits `solver`: the point and all its multipliers for a back-end
+    /// that converges fastest from them (SQP, IPOPT), else the point alone with the
+    /// back-end's own fresh barrier (the interior point).
+    pub fn preferred_by(solver: &dyn Solver) -> WarmStart {
+        if solver.restarts_from_multipliers() {
+            WarmStart::PrimalDual
+        } else {
+            WarmStart::Primal
+        }
+    }
+}
