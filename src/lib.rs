@@ -8,6 +8,12 @@
 //! (feature `ipopt`), or your own type — chooses the inputs; and
 //! [`sim::season::run_season`] runs it over a weather source and reports the metrics.
 //!
+//! The core (everything above) builds alone (`default-features = false`); features add
+//! the rest: `learn` (SAC training and value fits on burn: `rl::sac`, `rl::value_fit`,
+//! `job::train`, `job::value`), `serve` (`ghm serve` and its client, `serve`), `study`
+//! (`ghm study` and `ghm report`, `study`; with `learn`), `cli` (the `ghm` command line;
+//! all of them, and the default) and `ipopt` (the IPOPT back-end).
+//!
 //! ```
 //! use ghm::control::Mpc;
 //! use ghm::model::Plant;
@@ -32,6 +38,7 @@
 //! ```
 pub mod agent;
 pub mod choice;
+#[cfg(feature = "cli")]
 pub mod cli;
 pub mod control;
 pub mod embed;
@@ -44,9 +51,11 @@ pub mod nlp;
 pub mod nn;
 pub mod report;
 pub mod rl;
+#[cfg(feature = "serve")]
 pub mod serve;
 pub mod sim;
 pub mod solve;
+#[cfg(feature = "study")]
 pub mod study;
 
 /// What a plant author needs, in one `use ghm::prelude::*;`: the builder and its handles,

@@ -17,7 +17,9 @@ pub mod output;
 pub mod resume;
 mod season;
 mod spec;
+#[cfg(feature = "learn")]
 pub mod train;
+#[cfg(feature = "learn")]
 pub mod value;
 mod weather;
 

@@ -1,6 +1,6 @@
 //! Reinforcement learning on any plant: an episodic environment over the plant and a
-//! weather ([`Env`]), a replay buffer, soft actor-critic trained with burn ([`sac`]), and
-//! the value-network fit. The trained agent it exports (the running observation
+//! weather ([`Env`]), a replay buffer, and with the feature `learn` soft actor-critic
+//! trained with burn (`sac`) and the value-network fit. The trained agent it exports (the running observation
 //! normaliser [`Normalizer`], the policy as plain weights [`PolicyFile`], the observation
 //! and action map) lives one room below, in [`agent`](crate::agent), where
 //! [`control`](crate::control) can run it without depending on training; it is
@@ -9,17 +9,20 @@
 //! * [`env`](mod@env): reward and episode bookkeeping over the agent's observation and
 //!   action map;
 //! * [`buffer`]: the replay buffer;
-//! * [`sac`]: networks, Adam, the gradient step, the training loop and its checkpoints;
-//! * [`value_fit`]: the value network regression of RL-guided MPC;
+//! * `sac`: networks, Adam, the gradient step, the training loop and its checkpoints
+//!   (feature `learn`);
+//! * `value_fit`: the value network regression of RL-guided MPC (feature `learn`);
 //! * [`error`]: the error type [`RlError`].
 //!
-//! Architecture invariant: burn stays inside [`sac`]; everything that leaves this room
+//! Architecture invariant: burn stays inside `sac` and `value_fit`; everything that leaves this room
 //! (a [`PolicyFile`]) is plain weights for the [`nn`](crate::nn) room.
 
 pub mod buffer;
 pub mod env;
 pub mod error;
+#[cfg(feature = "learn")]
 pub mod sac;
+#[cfg(feature = "learn")]
 pub mod value_fit;
 
 pub use crate::agent::{normalize, policy, AgentError, Normalizer, PolicyFile};

@@ -4,7 +4,7 @@
 //! repository cannot ship them; `.ci/run` installs GreenLight and sets the variable.
 
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// GreenLight's `models` folder, where it holds Katzin 2021; `None` otherwise.
 pub fn models() -> Option<PathBuf> {
@@ -33,7 +33,8 @@ pub fn models_or_skip(test: &str) -> Option<PathBuf> {
 }
 
 /// `ghm import greenlight` of Katzin 2021 with its weather into a fresh folder.
-pub fn import(models: &Path, folder: &str, extra: &[&str]) -> PathBuf {
+#[cfg(feature = "cli")]
+pub fn import(models: &std::path::Path, folder: &str, extra: &[&str]) -> PathBuf {
     let out = super::bin::temp_dir(folder);
     let imported = std::process::Command::new(env!("CARGO_BIN_EXE_ghm"))
         .args(["import", "greenlight"])

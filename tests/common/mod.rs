@@ -6,6 +6,7 @@
 //! (`.ci/run`, which provides the data, so that CI runs every test).
 #![allow(dead_code)]
 
+#[cfg(feature = "cli")]
 pub mod bin;
 pub mod greenlight;
 
