@@ -36,9 +36,11 @@
 //! assert_eq!(result.metrics.steps, 12);
 //! assert_eq!(result.metrics.solve.failed_solves, 0);
 //! ```
+#![cfg_attr(docsrs, feature(doc_cfg))]
 pub mod agent;
 pub mod choice;
 #[cfg(feature = "cli")]
+#[cfg_attr(docsrs, doc(cfg(feature = "cli")))]
 pub mod cli;
 pub mod control;
 pub mod embed;
@@ -52,10 +54,12 @@ pub mod nn;
 pub mod report;
 pub mod rl;
 #[cfg(feature = "serve")]
+#[cfg_attr(docsrs, doc(cfg(feature = "serve")))]
 pub mod serve;
 pub mod sim;
 pub mod solve;
 #[cfg(feature = "study")]
+#[cfg_attr(docsrs, doc(cfg(feature = "study")))]
 pub mod study;
 
 /// What a plant author needs, in one `use ghm::prelude::*;`: the builder and its handles,

@@ -536,3 +536,45 @@ fn simulate_with_the_models_rules_follows_them() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn completions_cover_every_command_and_refuse_an_unknown_shell() {
+    // The commands `ghm --help` lists, each completed by the bash script with its flags.
+    let (ok, help, _) = ghm(&["--help"]);
+    assert!(ok);
+    let commands: Vec<&str> = help
+        .lines()
+        .skip_while(|l| !l.starts_with("Commands:"))
+        .skip(1)
+        .take_while(|l| l.starts_with("  "))
+        .filter_map(|l| l.split_whitespace().next())
+        .collect();
+    assert!(
+        commands.contains(&"mpc") && commands.contains(&"completions"),
+        "{commands:?}"
+    );
+    let (ok, bash, err) = ghm(&["completions", "bash"]);
+    assert!(ok, "{err}");
+    for command in &commands {
+        assert!(
+            bash.contains(&format!("ghm__subcmd__{command}")),
+            "bash lacks {command}"
+        );
+    }
+    assert!(bash.contains("--warm-start"), "bash lacks mpc's flags");
+    let (ok, zsh, _) = ghm(&["completions", "zsh"]);
+    assert!(ok && zsh.starts_with("#compdef ghm"), "{zsh:.40}");
+    let (ok, _, err) = ghm(&["completions", "tcsh"]);
+    assert!(!ok);
+    assert!(
+        err.contains("invalid value 'tcsh'") && err.contains("bash"),
+        "{err}"
+    );
+}
+
+#[test]
+fn version_names_the_package_version() {
+    let (ok, out, _) = ghm(&["--version"]);
+    assert!(ok);
+    assert_eq!(out.trim(), format!("ghm {}", env!("CARGO_PKG_VERSION")));
+}

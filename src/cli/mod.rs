@@ -5,6 +5,7 @@
 mod args;
 mod check;
 mod compile;
+mod completions;
 mod import;
 mod mpc;
 mod optimum;
@@ -143,6 +144,9 @@ enum Command {
     /// Import a model from another tool: `ghm import greenlight MODEL.json --out DIR`
     /// writes a .ghm model (and the weather as a ghm CSV).
     Import(import::ImportArgs),
+    /// Print the completion script of a shell (bash, zsh, fish, elvish, powershell), e.g.
+    /// `ghm completions bash > ~/.local/share/bash-completion/completions/ghm`.
+    Completions(completions::CompletionsArgs),
 }
 
 /// Runs the command line; returns the process exit code.
@@ -163,6 +167,7 @@ pub fn main() -> i32 {
         Command::Replay(a) => replay::run(&a),
         Command::Compile(a) => compile::run(&a),
         Command::Import(a) => import::run(&a),
+        Command::Completions(a) => completions::run(&a),
     };
     match result {
         Ok(()) => 0,

@@ -18,8 +18,10 @@ pub mod resume;
 mod season;
 mod spec;
 #[cfg(feature = "learn")]
+#[cfg_attr(docsrs, doc(cfg(feature = "learn")))]
 pub mod train;
 #[cfg(feature = "learn")]
+#[cfg_attr(docsrs, doc(cfg(feature = "learn")))]
 pub mod value;
 mod weather;
 

@@ -21,8 +21,10 @@ pub mod buffer;
 pub mod env;
 pub mod error;
 #[cfg(feature = "learn")]
+#[cfg_attr(docsrs, doc(cfg(feature = "learn")))]
 pub mod sac;
 #[cfg(feature = "learn")]
+#[cfg_attr(docsrs, doc(cfg(feature = "learn")))]
 pub mod value_fit;
 
 pub use crate::agent::{normalize, policy, AgentError, Normalizer, PolicyFile};

@@ -179,3 +179,8 @@ class VecEnv:
 
 
 gymnasium.register(id="ghm/Model-v0", entry_point="ghm:Env")
+
+
+def __dir__() -> list[str]:
+    """The package's API only (PEP 562), not the modules it imports (``np``, ``os``, ...)."""
+    return sorted(__all__)
