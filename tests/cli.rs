@@ -499,6 +499,61 @@ fn value_and_rlmpc_run_end_to_end_with_the_expert_guide() {
     let _ = std::fs::remove_dir_all(&run);
 }
 
+/// The model's own rules as RL-guided MPC's guide (`--guide rules`): the lamp clock's
+/// thermostat rolled out for the value fit and for the terminal region, as the expert is
+/// for lettuce; a model without rules is refused with the inputs that have none.
+#[test]
+fn value_and_rlmpc_follow_the_models_rules_as_their_guide() {
+    let value = temp_dir("value-rules");
+    let v = value.to_str().expect("utf-8 temp path");
+    let (ok, out, err) = ghm(&[
+        "value",
+        "models/lamp-clock.ghm",
+        "--guide",
+        "rules",
+        "--trajectories",
+        "16",
+        "--epochs",
+        "2",
+        "--days",
+        "1",
+        "--out",
+        v,
+    ]);
+    assert!(ok, "{err}");
+    assert!(out.contains("value at the season start"), "{out}");
+    let run = temp_dir("rlmpc-rules");
+    let r = run.to_str().expect("utf-8 temp path");
+    let (ok, out, err) = ghm(&[
+        "rlmpc",
+        "models/lamp-clock.ghm",
+        "--guide",
+        "rules",
+        "--value",
+        v,
+        "--days",
+        "0.25",
+        "--horizon",
+        "1h",
+        "--out",
+        r,
+    ]);
+    assert!(ok, "{err}");
+    assert!(out.contains("rlmpc[rules]"), "{out}");
+    let (ok, _, err) = ghm(&[
+        "value",
+        "models/lettuce.ghm",
+        "--guide",
+        "rules",
+        "--out",
+        v,
+        "--overwrite",
+    ]);
+    assert!(!ok && err.contains("have none"), "{err}");
+    let _ = std::fs::remove_dir_all(&value);
+    let _ = std::fs::remove_dir_all(&run);
+}
+
 /// `ghm simulate --rules`: the model's own rules decide. The lamp clock's thermostat heats
 /// fully below 18.5 °C and not at all above, so a cold season's heating column follows
 /// the air temperature, within the input's rate limit.

@@ -3,7 +3,9 @@
 //! the value network, fixed inputs.
 
 use crate::agent::PolicyFile;
-use crate::control::{ConstantInput, Controller, Expert, InputTable, Mpc, Policy, ValueFile};
+use crate::control::{
+    ConstantInput, Controller, Expert, InputTable, Mpc, Policy, Rules, ValueFile,
+};
 use crate::job::spec::{ControllerSpec, CostForm, GuideChoice, MpcSpec, RlmpcSpec, RunSpec};
 use crate::job::weather::WeatherSpec;
 use crate::job::JobError;
@@ -162,7 +164,7 @@ pub fn resolve_policy(
 pub type GuideFactory = Box<dyn Fn() -> Box<dyn Controller + Send> + Sync>;
 
 /// The policy a guide of `choice` follows: `--agent`'s or the shipped one for the SAC
-/// guide (see [`resolve_policy`]), none for the expert.
+/// guide (see [`resolve_policy`]), none for the expert and the rules.
 pub fn resolve_guide_policy(
     choice: GuideChoice,
     model_file: &Path,
@@ -173,7 +175,7 @@ pub fn resolve_guide_policy(
 ) -> Result<Option<PolicyFile>, JobError> {
     match choice {
         GuideChoice::Sac => resolve_policy(model_file, weather, agent, plant, announce).map(Some),
-        GuideChoice::Expert => Ok(None),
+        GuideChoice::Expert | GuideChoice::Rules => Ok(None),
     }
 }
 
@@ -198,6 +200,12 @@ pub fn guide_factory(
             let expert = Expert::new(plant.clone()).map_err(fail)?;
             Ok(Box::new(move || {
                 Box::new(expert.clone()) as Box<dyn Controller + Send>
+            }))
+        }
+        GuideChoice::Rules => {
+            let rules = Rules::new(plant.clone()).map_err(fail)?;
+            Ok(Box::new(move || {
+                Box::new(rules.clone()) as Box<dyn Controller + Send>
             }))
         }
     }
@@ -287,10 +295,10 @@ pub fn resolve_value(
             path.display(),
             format!(
                 "no value network there: fit one with `ghm value{}` and name its folder",
-                if spec.guide == GuideChoice::Expert {
-                    " --guide expert"
-                } else {
-                    ""
+                match spec.guide {
+                    GuideChoice::Sac => "",
+                    GuideChoice::Expert => " --guide expert",
+                    GuideChoice::Rules => " --guide rules",
                 }
             ),
         ));

@@ -454,6 +454,9 @@ crate::choice! {
         Sac = "sac",
         /// The rule-based expert: no training needed.
         Expert = "expert",
+        /// The model's own rules (each input's `rule`, e.g. GreenLight's climate control):
+        /// no training needed.
+        Rules = "rules",
     }
     default Sac
 }

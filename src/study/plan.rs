@@ -372,8 +372,10 @@ impl OwnAgents<'_> {
     fn folder(&self, kind: &str, what: Own) -> PathBuf {
         match what {
             Own::Agent => Path::new(self.stem).join("agents").join(kind),
-            // The expert's value fit does not depend on any training.
-            Own::Value(GuideChoice::Expert) => Path::new(self.stem).join("values").join("expert"),
+            // The expert's and the rules' value fits do not depend on any training.
+            Own::Value(guide @ (GuideChoice::Expert | GuideChoice::Rules)) => {
+                Path::new(self.stem).join("values").join(guide.name())
+            }
             Own::Value(GuideChoice::Sac) => Path::new(self.stem)
                 .join("values")
                 .join(format!("{kind}-sac")),
@@ -394,7 +396,7 @@ impl OwnAgents<'_> {
         let kind = self.kind(plant, agents);
         let mut use_own = |what: Own, needs: &mut Vec<PathBuf>| {
             let kind = match what {
-                Own::Value(GuideChoice::Expert) => "nominal",
+                Own::Value(GuideChoice::Expert | GuideChoice::Rules) => "nominal",
                 _ => kind,
             };
             self.used.insert((kind, what));
