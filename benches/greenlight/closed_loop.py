@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """GreenLight's own closed loop (its rules, default solver options) over the first DAYS of
 the Bleiswijk weather: the yardstick ghm's season is timed against, in one run beside it
-(docs/benchmarks.md). Calls GreenLight only through its public class, as
+(docs/benchmarks-history.md, GreenLight's "Before" entry; the command is in
+docs/benchmarks.md). Calls GreenLight only through its public class, as
 tests/greenlight/make_reference.py does (whose helpers it uses).
 
 Usage: python closed_loop.py [DAYS]      (default 1)

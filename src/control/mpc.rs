@@ -4,15 +4,16 @@
 //! The solve starts from the previous solution shifted by one step, as the back-end prefers
 //! ([`WarmStart::preferred_by`], [`Mpc::warm_start`]): the interior point from the shifted primal
 //! point with a fresh barrier (and, under guidance, the shifted constraint multipliers;
-//! [`WarmStart::Primal`]: six to twelve iterations every step, none much longer; with the
+//! [`WarmStart::Primal`]: a similar number of iterations every step, none much longer; with the
 //! multipliers for plain MPC too and the bare plan where the Hessian keeps needing
 //! corrections, [`WarmStart::PrimalMultipliers`]), SQP from the shifted primal point and
 //! multipliers ([`WarmStart::PrimalDual`]). Its status is checked every step. A
 //! primal-dual warm solve is capped at [`Mpc::warm_iteration_limit`] iterations (the
 //! solver's [`Solver::warm_iteration_budget`]: 15 for SQP, 40 for the interior-point
-//! method and IPOPT): from a shifted solution SQP needs two or three, and one that needs
+//! method and IPOPT): from a shifted solution SQP needs only a few, and one that needs
 //! many more is usually stuck on a flat stretch of the economic cost, where a cold start is
-//! the better use of time. When it fails, the controller falls back, in this order:
+//! the better use of time (measured: `docs/benchmarks.md`, "Economic MPC over the 40-day
+//! Venlo season"). When it fails, the controller falls back, in this order:
 //!
 //! 1. `cold_start`: solve again from the held previous input, simulated (under guidance,
 //!    first from a fresh roll-out of the guide, its terminal region re-centred on it);
@@ -314,13 +315,15 @@ impl Mpc {
 }
 
 /// Hessian corrections after which plain MPC gives up its restart with the shifted
-/// multipliers and restarts from the shifted plan alone. Over the paper study's 372 MPC
-/// seasons (session 17) that restart took 7.05 iterations a step against the bare plan's
-/// 9.41, but where the shifted multipliers left the Hessian indefinite (0.4 % of the
-/// steps needed three corrections or more) it crawled: up to 94 iterations, 80 of them
-/// corrected, where the bare plan needed 10. Steps with fewer than three corrections took
-/// at most 5.7× their season's median; with the limit (session 18) the longest step of
-/// any season took 9.9× its median (69 iterations; the bare plan's longest: 89).
+/// multipliers and restarts from the shifted plan alone. Over the paper study's MPC
+/// seasons that restart took markedly fewer iterations a step than the bare plan, but
+/// where the shifted multipliers left the Hessian indefinite (the few steps that needed
+/// three corrections or more) it crawled, nearly every iteration corrected, where
+/// the bare plan needed few. Steps with fewer than three corrections stayed well within
+/// 10× their season's median, so the limit touches only the crawls; with it the longest
+/// step of any season is shorter than the bare plan's longest and within 10× its median
+/// (measured: `docs/benchmarks.md`, "Plain MPC restarted with its multipliers"; the
+/// crawls: `docs/benchmarks-history.md`, the same heading).
 const CLOSER_START_CORRECTIONS: usize = 3;
 
 /// The iterations and Hessian corrections of one step's solves.

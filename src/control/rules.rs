@@ -7,7 +7,7 @@
 //!
 //! GreenLight evaluates its rules continuously inside the integration; here they decide
 //! once per sample period, as every controller of ghm does, so the closed loop differs
-//! from GreenLight's by that hold (`docs/benchmarks.md` measures it).
+//! from GreenLight's by that hold (`docs/import.md`, "What each kind becomes", measures it).
 
 use crate::control::{ControlError, Controller, Decision, Observation, StepRecord};
 use crate::graph::{Tape, Workspace};

@@ -11,15 +11,17 @@ crate::choice! {
     pub enum WarmStart {
         /// The shifted primal point (under guidance with the constraint multipliers); bound
         /// multipliers and barrier afresh (fatrop's way, and the interior point's default:
-        /// six to twelve iterations every step, none much longer).
+        /// a similar number of iterations every step, none much longer; measured in
+        /// docs/benchmarks.md, "Restarting from the shifted plan, not from its multipliers").
         Primal = "primal",
-        /// The shifted primal point and multipliers (SQP's and IPOPT's default: two or
-        /// three SQP iterations; the interior point's fewest iterations in the median, from
-        /// a tiny barrier parameter, but 20–40 where the active set changes).
+        /// The shifted primal point and multipliers (SQP's and IPOPT's default: few SQP
+        /// iterations; the interior point's fewest iterations in the median, from a tiny
+        /// barrier parameter, but many more where the active set changes; the same section).
         PrimalDual = "primal-dual",
         /// The shifted primal point with its constraint multipliers for plain MPC too,
         /// again from the point alone where the Hessian needs three corrections (the
-        /// interior point: a quarter fewer iterations than `primal`; docs/benchmarks.md).
+        /// interior point: fewer iterations than `primal`; measured in docs/benchmarks.md,
+        /// "Plain MPC restarted with its multipliers").
         PrimalMultipliers = "primal-multipliers",
     }
 }

@@ -8,8 +8,8 @@
 //! constant carries none), and every operation branches on it and goes through
 //! nalgebra's generic arithmetic. The tape's sweeps seed every input with lanes, so the
 //! option is always set; here the lanes are eight plain floats that the compiler keeps in
-//! vector registers, and a sweep of the lettuce step's 1024 instructions runs about
-//! twice as fast (`docs/benchmarks.md`, "One discrete lettuce step").
+//! vector registers, and a sweep of the lettuce step's 1024 instructions runs much faster
+//! (measured: `docs/benchmarks-history.md`, "A lane type without `Option`").
 
 // The product and quotient rules are a dual number's multiplication and division: their
 // `+`, `−` and `*` inside `Mul` and `Div` are the point, not a slip.

@@ -20,8 +20,10 @@
 //!   collocation polynomial continued; where it contracts slowly, `J` is taken afresh at
 //!   the start, and at every stage where that slows too; a step that still fails is
 //!   split into up to 64 pieces. (Taking `J` afresh at a sub-step's start wherever the
-//!   last one contracted at a rate above 0.1 saved 3 % of the GreenLight season but made
-//!   a step from its initial state three times slower: not kept.) In a simulation,
+//!   last one contracted at a rate above 0.1 saved little of the GreenLight season but made
+//!   a step from its initial state much slower, so it was not kept: measured in
+//!   `docs/benchmarks-history.md`, "After the split Newton matrix and the batched
+//!   stages".) In a simulation,
 //!   converged when the error left, estimated from the rate of contraction
 //!   (`η ‖Δ‖`, Hairer & Wanner IV.8), is below 1e-7 scaled; for derivatives, at a scaled
 //!   correction of 1e-10 ([`Purpose`]); both far below the integration error, so that the

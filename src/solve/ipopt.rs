@@ -142,11 +142,12 @@ impl Solver for Ipopt {
         self.iteration_limit = limit;
     }
 
-    /// 40, like the interior point's: from `mu_init = 1e-4` IPOPT's monotone barrier needs
-    /// 15–30 iterations to its tolerance. With SQP's 15 the warm solve ran out on 1639 of
-    /// the paper season's 1920 steps at 6 h, each then re-solved cold (12 failed solves,
-    /// median 63 ms, worst 2.1 s); with 40: 9 cold re-solves, no failure, median 29 ms,
-    /// worst 154 ms (`docs/benchmarks.md`).
+    /// 40, like the interior point's: from `mu_init = 1e-4` IPOPT's monotone barrier often
+    /// needs more iterations to its tolerance than SQP's 15. With that budget the warm solve
+    /// ran out on most of the paper season's steps at 6 h, each then re-solved cold (some
+    /// solves failed, and the steps took much longer); with 40, a handful of cold
+    /// re-solves and no failure (measured: `docs/benchmarks.md`, "The same problems, two
+    /// back-ends: where the reward differences come from").
     fn warm_iteration_budget(&self) -> usize {
         40
     }

@@ -14,10 +14,10 @@ use crate::nlp::{Pattern, Stages};
 
 /// The fraction-to-the-boundary step below which a direction from the stage-wise inertia
 /// correction is replaced by the whole-horizon correction's. Measured on the 40-day seasons
-/// (6 h horizon, every step restarted from the shifted plan): without it, cold solves
-/// crawled at steps of 1e-8 … 1e-5 with directions of 1e5 … 1e7 to the 200-iteration cap
-/// (3 of 1920 steps on the thesis variant, 4 on the paper's); with it, the longest took
-/// 34 and 70 iterations.
+/// (6 h horizon, every step restarted from the shifted plan): without it, a few cold solves
+/// of each season crawled at steps of 1e-8 … 1e-5 with directions of 1e5 … 1e7 to the
+/// iteration cap; with it, none came near the cap (`docs/benchmarks-history.md`,
+/// "Restarting from the shifted plan, not from its multipliers").
 pub(super) const SHORT_CORRECTED_STEP: f64 = 1e-2;
 
 /// The Riccati recursion of one problem pattern, where its stage map puts the entries.

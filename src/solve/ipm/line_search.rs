@@ -23,16 +23,19 @@ use crate::nlp::{Nlp, Pattern};
 const BLOCKED_STEPS_BEFORE_RESTORATION: usize = 5;
 
 /// Watches for the line search's one blind spot: a run of short steps the filter accepts
-/// on the barrier objective while the violation creeps up. Measured on the paper study's
+/// on the barrier objective while the violation creeps up. Seen on the paper study's
 /// longest step (RL-MPC-VFO at 6 h, a perturbed season, step 1372): the linearised
-/// constraints asked a rate-limited input to move six times its range, its two rate rows
-/// cut every step to `α ≈ 4e-3`, and 125 such steps raised the violation from 2.5e-3 to
-/// 8.3e-3 on objective gains of 1e-9; the second-order correction never ran, because no
-/// trial was rejected. Re-simulating the states after five of them ended that solve in 29
-/// iterations instead of 152. Once a solve: where the blocked run comes back after the
-/// restoration, restoring again only starts the run over (a step of the same study, 5 h,
-/// cycled 14 times, 92 iterations against 26 without the rule); left to the filter it
-/// ends in 36. Over the study's 1116 MPC-type seasons, rewards moved by at most 1e-8.
+/// constraints asked a rate-limited input to move several times its range, its two rate
+/// rows cut every step far short, and over a hundred such steps raised the violation on
+/// negligible objective gains; the second-order correction never ran, because no trial was
+/// rejected. Re-simulating the states after five of them ended that solve in a fraction of
+/// its iterations. Once a solve: where the blocked run comes back after the restoration,
+/// restoring again only starts the run over (a step of the same study at 5 h cycled
+/// through restoration after restoration and took several times its iterations without
+/// the rule); left to the filter it ends soon after. Over the study's MPC-type seasons the
+/// rewards moved only in the last digits (measured: `docs/benchmarks-history.md`,
+/// "Session 15: the paper study's longest step" and "Session 16: the blocked-step
+/// restoration").
 #[derive(Debug, Clone, Default)]
 struct BlockedSteps {
     run: usize,

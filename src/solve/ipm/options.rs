@@ -12,8 +12,9 @@ pub struct IpmOptions {
     /// KKT residual accepted when the method cannot go further or reaches its limit, or
     /// after `acceptable_iterations` iterations in a row below it. 1e-5 (IPOPT's is 1e-6):
     /// on the 40-day season at 4 h, a solve whose reduced Hessian stayed barely corrected
-    /// took full steps at an error of 3.6e-6 for 150 iterations, each gaining 7e-9 of the
-    /// objective.
+    /// took full steps at an error between 1e-6 and 1e-5 for over a hundred iterations, each
+    /// gaining next to nothing of the objective (`docs/benchmarks-history.md`, "Restarting
+    /// from the shifted plan, not from its multipliers").
     pub acceptable_tolerance: f64,
     /// The run of iterations `acceptable_tolerance` asks for.
     pub acceptable_iterations: usize,
@@ -34,13 +35,15 @@ pub struct IpmOptions {
     /// restart). Pushed by `shifted_push` = 1e-2 instead, each slack starts 1e-2 above an
     /// optimum of zero, ten stage rewards' worth of penalty, and the first step is cut to
     /// `α ≈ 0.1` by the slacks' fraction to the boundary. Measured over the paper study's
-    /// 744 RL-MPC and RL-MPC-VFO seasons: with 1e-4 and the multipliers, 1.8–2.1 iterations
-    /// fewer per step and the longest step within 9.8× its season's median (5.7× with the
-    /// terminal region). Plain MPC keeps the bare shifted plan by default: there the same
-    /// start lowered the median from 11 to 7 iterations but left the longest steps where
-    /// they were (up to 94, inertia-corrected crawls), 13.4× the median in the worst
-    /// season, unless a solve that needs three corrections starts again from the bare
-    /// plan ([`WarmStart::PrimalMultipliers`](crate::control::WarmStart::PrimalMultipliers)).
+    /// RL-MPC and RL-MPC-VFO seasons: with 1e-4 and the multipliers, fewer iterations per
+    /// step and the longest step still within 10× its season's median. Plain MPC
+    /// keeps the bare shifted plan by default: there the same start lowered the median but
+    /// left the longest steps where they were (inertia-corrected crawls), past 10× the
+    /// median in the worst seasons, unless a solve that needs three corrections starts
+    /// again from the bare plan
+    /// ([`WarmStart::PrimalMultipliers`](crate::control::WarmStart::PrimalMultipliers);
+    /// measured: `docs/benchmarks-history.md`, "Session 17: RL-guided MPC's closer
+    /// restart").
     ///
     /// [`Start::with_multipliers`]: crate::solve::Start::with_multipliers
     pub shifted_slack_push: f64,
@@ -64,8 +67,9 @@ pub enum MuStrategy {
     /// monotone rule takes over from `0.8 ×` the average complementarity until its barrier
     /// problem is solved, and free mode resumes. A warm start keeps the monotone rule:
     /// measured on the 40-day seasons, probing from a warm start's tiny complementarity
-    /// failed solves that the monotone rule solved, while on cold starts it halved the
-    /// iterations (the season optimum: 60 → 39 and 53 → 29; the first MPC step: 20 → 12).
+    /// failed solves that the monotone rule solved, while on cold starts it took far fewer
+    /// iterations (the season optimum and the first MPC step; `docs/benchmarks-history.md`,
+    /// "An adaptive barrier for cold starts").
     Adaptive,
 }
 
