@@ -18,7 +18,7 @@
 //!
 //! ```sh
 //! cargo run --release --example solver_agreement -- models/lettuce.ghm \
-//!     ../shared/data/venlo2014_30min_model_units.csv 1394 40 6h sqp ipm
+//!     $GHM_DATA/venlo2014_30min_model_units.csv 1394 40 6h sqp ipm
 //! ```
 //!
 //! Arguments: model, weather CSV, start row, days, horizon, driver, shadow (`ipm`, `sqp`,

@@ -92,7 +92,7 @@ fn assert_same_declarations(file: &Model, code: &Model) {
 }
 
 /// `a` and `b` agree to 1e-12, entry by entry, relative to the larger of the two or to
-/// 1e-12 of the array's largest entry, whichever is larger (as `tests/shared_derivatives.rs`
+/// 1e-12 of the array's largest entry, whichever is larger (as `tests/derivatives_casadi.rs`
 /// measures): the two graphs number their nodes differently, so a Hessian entry that is a
 /// sum of terms cancelling to 1e-16 of the largest is summed in another order.
 fn assert_close(what: &str, a: &[f64], b: &[f64]) {

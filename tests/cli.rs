@@ -633,3 +633,63 @@ fn version_names_the_package_version() {
     assert!(ok);
     assert_eq!(out.trim(), format!("ghm {}", env!("CARGO_PKG_VERSION")));
 }
+
+/// `ghm import venlo` on an excerpt that ghm writes itself (a day of 5-minute rows as a
+/// compressed MAT-file, as the paper's authors publish the Venlo weather): the data folder
+/// it writes is one a season runs on, and a file that is not a MAT-file is refused by name.
+#[test]
+fn import_venlo_makes_a_data_folder_a_season_runs_on() {
+    let dir = temp_dir("venlo");
+    std::fs::create_dir_all(&dir).expect("a scratch folder");
+    let rows = 288;
+    let datenum = |r: usize| 735_609.0 + r as f64 * 300.0 / 86_400.0;
+    let columns: [&dyn Fn(usize) -> f64; 6] = [
+        &datenum,
+        &|r| (400.0 * ((r as f64 - 72.0) / 144.0 * std::f64::consts::PI).sin()).max(0.0),
+        &|r| 4.0 + 0.01 * r as f64,
+        &|_| 85.0,
+        &|_| 2.0,
+        &|_| 420.0,
+    ];
+    let data: Vec<f64> = columns.iter().flat_map(|f| (0..rows).map(f)).collect();
+    let mat = dir.join("outdoorWeatherWurGlas2014.mat");
+    std::fs::write(
+        &mat,
+        ghm::import::venlo::mat::write(&[("d", rows, &data)], true),
+    )
+    .expect("write the excerpt");
+    let data_dir = dir.join("data");
+    let (ok, out, err) = ghm(&[
+        "import",
+        "venlo",
+        mat.to_str().unwrap(),
+        "--out",
+        data_dir.to_str().unwrap(),
+    ]);
+    assert!(ok, "{out}{err}");
+    assert!(out.contains("48 rows of 1800 s"), "{out}");
+    let weather = data_dir.join(ghm::sim::weather::VENLO_FILE);
+    let run = dir.join("season");
+    let (ok, out, err) = ghm(&[
+        "simulate",
+        "models/lettuce.ghm",
+        "--weather",
+        weather.to_str().unwrap(),
+        "--steps",
+        "47",
+        "--out",
+        run.to_str().unwrap(),
+    ]);
+    assert!(ok, "{out}{err}");
+    assert_eq!(summary(&run)["metrics"]["steps"], 47, "{out}");
+
+    let not_mat = dir.join("weather.mat");
+    std::fs::write(&not_mat, "time,rad\n").expect("write");
+    let (ok, _, err) = ghm(&["import", "venlo", not_mat.to_str().unwrap(), "--out", "x"]);
+    assert!(!ok);
+    assert!(
+        err.contains("weather.mat") && err.contains("not a MAT-file"),
+        "{err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+}

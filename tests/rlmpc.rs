@@ -300,7 +300,7 @@ fn two_days(plant: &Arc<Plant>, w: &Weather, controller: &mut dyn Controller) ->
 /// Recorded 2-day rewards (€ m⁻², paper variant, built-in weather, 1 h horizon, SQP), printed
 /// by `cargo test --test rlmpc two_day -- --nocapture`. A closed loop of SQP solves is
 /// deterministic; 2e-5 is what separates two correct solvers on such a loop (the 2-day MPC
-/// against IPOPT in `shared_mpc`), well below the gaps between the controllers. On these
+/// against IPOPT in `venlo_mpc`), well below the gaps between the controllers. On these
 /// two days neither guide beats plain MPC (the value networks were fitted on the season's
 /// returns); the optimum beats all. The expert's loop forks on rounding: when the value
 /// network's derivatives came from `Mlp::forward_second_along` instead of `Dual2` (the

@@ -728,6 +728,14 @@ fn path_points(dom: &str, class: &str) -> Vec<usize> {
 
 #[test]
 fn the_live_page_draws_every_quantity_and_shows_a_new_decision() {
+    let test = "the_live_page_draws_every_quantity_and_shows_a_new_decision";
+    if !common::tool(
+        "chromium",
+        "a headless browser; Debian: apt-get install chromium",
+        test,
+    ) {
+        return;
+    }
     let (server, dir) = start_with_token("serve-page", "1h", &[]);
     let url = server.url.clone();
     for k in 0..2 {

@@ -65,7 +65,7 @@ pub fn choice_where<T: Choice>(keep: fn(T) -> bool) -> impl TypedValueParser<Val
 /// The weather a season runs on and its length ([`WeatherSpec`]).
 #[derive(Debug, Clone, Args)]
 pub struct WeatherArgs {
-    /// Weather CSV with a header of named columns (e.g. ../shared/data/venlo2014_30min_model_units.csv).
+    /// Weather CSV with a header of named columns (e.g. $GHM_DATA/venlo2014_30min_model_units.csv).
     /// Without --weather or --knmi, ghm's built-in Dutch late-winter season is used.
     #[arg(long, value_name = "CSV", conflicts_with = "knmi")]
     pub weather: Option<PathBuf>,

@@ -1,5 +1,6 @@
 //! `ghm import greenlight`: a GreenLight model (JSON files) and weather CSV as a `.ghm`
-//! model and a ghm weather CSV (`docs/import.md`).
+//! model and a ghm weather CSV (`docs/import.md`); `ghm import venlo`: the paper's
+//! published Venlo weather as the lettuce studies' weather file (`docs/data.md`).
 
 use crate::cli::CliError;
 use crate::import::greenlight::{convert, write, Options, DEFAULT_INTEGRATOR};
@@ -16,6 +17,25 @@ pub struct ImportArgs {
 enum Source {
     /// A GreenLight model (main .json, e.g. main_katzin_2021.json) and weather CSV.
     Greenlight(GreenlightArgs),
+    /// The paper's Venlo 2014 weather as its authors published it
+    /// (outdoorWeatherWurGlas2014.mat or .csv), into the data folder the lettuce studies
+    /// read (docs/data.md).
+    Venlo(VenloArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct VenloArgs {
+    /// outdoorWeatherWurGlas2014.mat (MAT-file, matrix `d`) or outdoorWeatherWurGlas2014.csv
+    /// (no header: time, radiation, temperature, humidity, wind, CO₂).
+    pub source: PathBuf,
+    /// The data folder to write DIR/venlo2014_30min_model_units.csv into (then set
+    /// GHM_DATA=DIR for the tests).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// The period to keep, in seconds: the rows whose time is a multiple of it (the
+    /// lettuce models sample every 30 minutes).
+    #[arg(long, default_value_t = 1800.0)]
+    pub period: f64,
 }
 
 #[derive(Debug, Args)]
@@ -49,7 +69,14 @@ pub struct GreenlightArgs {
 pub fn run(args: &ImportArgs) -> Result<(), CliError> {
     match &args.source {
         Source::Greenlight(a) => greenlight(a),
+        Source::Venlo(a) => venlo(a),
     }
+}
+
+fn venlo(a: &VenloArgs) -> Result<(), CliError> {
+    let (path, rows) = crate::import::venlo::import(&a.source, a.period, &a.out)?;
+    println!("wrote {} ({rows} rows of {} s)", path.display(), a.period);
+    Ok(())
 }
 
 fn greenlight(a: &GreenlightArgs) -> Result<(), CliError> {

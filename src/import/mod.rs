@@ -1,8 +1,10 @@
 //! `ghm import`: models and weather data of other tools turned into `.ghm` files and ghm
-//! weather CSVs. One source so far: GreenLight's JSON model files and weather CSV
-//! ([`greenlight`], [`weather`]); `docs/import.md` describes the command.
+//! weather CSVs. Two sources: GreenLight's JSON model files and weather CSV
+//! ([`greenlight`], [`weather`]; `docs/import.md`), and the paper's Venlo weather as its
+//! authors published it ([`venlo`]; `docs/data.md`).
 
 pub mod greenlight;
+pub mod venlo;
 pub mod weather;
 
 use std::path::PathBuf;
@@ -63,6 +65,14 @@ pub enum ImportError {
         /// The expression as written.
         text: String,
         /// The construct refused, or the name or function not found.
+        message: String,
+    },
+    /// A file that is not in the format its kind promises (e.g. not a MAT-file).
+    #[error("{}: {message}", path.display())]
+    Format {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
         message: String,
     },
     /// A weather file that cannot be converted.

@@ -17,7 +17,7 @@ pub const DEFAULT_DAYS: f64 = 40.0;
 #[serde(default, deny_unknown_fields)]
 pub struct WeatherSpec {
     /// Weather CSV with a header of named columns (e.g.
-    /// `../shared/data/venlo2014_30min_model_units.csv`). Without `weather` or `knmi`,
+    /// `$GHM_DATA/venlo2014_30min_model_units.csv`). Without `weather` or `knmi`,
     /// ghm's built-in Dutch late-winter season is used.
     pub weather: Option<PathBuf>,
     /// First data row of the weather file used as step 0 (Venlo: 1394 = 2014-02-08 01:00).

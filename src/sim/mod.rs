@@ -4,6 +4,8 @@ pub mod metrics;
 pub mod optimum;
 pub mod physical;
 pub mod season;
+#[cfg(test)]
+pub(crate) mod test_data;
 pub mod value_data;
 pub mod weather;
 pub mod weather_source;

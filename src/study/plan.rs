@@ -6,7 +6,8 @@
 //! always of an earlier phase ([`Work::phase`]): trainings, then value fits, then seasons.
 //!
 //! ```toml
-//! models = ["../models/lettuce.ghm"]     # paths are relative to the study file
+//! models = ["../models/lettuce.ghm"]     # paths are relative to the study file, or
+//!                                         # start with $GHM_DATA/ (the data folder)
 //! horizons = ["1h", "3h", "6h"]          # for the controllers that have one
 //! optimum = true                          # the season optimum of each model
 //!
@@ -205,14 +206,51 @@ pub fn plan(path: &Path, out: &Path) -> Result<Vec<Job>, StudyError> {
         message: e.to_string(),
     })?;
     let base = path.parent().unwrap_or(Path::new("."));
-    plan_file(file, base, out, &text).map_err(|message| StudyError::File {
+    let data = std::env::var_os(DATA_VARIABLE).map(PathBuf::from);
+    let place = Place {
+        base,
+        data: data.as_deref(),
+    };
+    plan_file(file, &place, out, &text).map_err(|message| StudyError::File {
         path: path.to_path_buf(),
         message,
     })
 }
 
+/// The environment variable naming the data folder, which a study file's paths may start
+/// with (`$GHM_DATA/venlo2014_30min_model_units.csv`, `docs/data.md`).
+pub const DATA_VARIABLE: &str = "GHM_DATA";
+
+/// Where a study file's paths lead: relative ones to the file's folder (the file's
+/// canonical path where it exists, so that a job's spec names the same file however the
+/// study reaches it; as joined otherwise, and the job then says that it is missing), those
+/// that start with `$GHM_DATA/` to the data folder.
+struct Place<'a> {
+    base: &'a Path,
+    data: Option<&'a Path>,
+}
+
+impl Place<'_> {
+    fn locate(&self, path: &Path) -> Result<PathBuf, String> {
+        let text = path.to_string_lossy();
+        let prefix = format!("${DATA_VARIABLE}/");
+        let Some(rest) = text.strip_prefix(&prefix) else {
+            let joined = self.base.join(path);
+            return Ok(std::fs::canonicalize(&joined).unwrap_or(joined));
+        };
+        match self.data {
+            Some(dir) => Ok(dir.join(rest)),
+            None => Err(format!(
+                "`{text}` names the data folder, but {DATA_VARIABLE} is not set: set it to the \
+                 folder that holds {rest} (`ghm import venlo` makes the Venlo weather; \
+                 docs/data.md)"
+            )),
+        }
+    }
+}
+
 /// Plans `file` (whose text is `text`, for the lines of its errors).
-fn plan_file(file: StudyFile, base: &Path, out: &Path, text: &str) -> Result<Vec<Job>, String> {
+fn plan_file(file: StudyFile, place: &Place, out: &Path, text: &str) -> Result<Vec<Job>, String> {
     if file.models.is_empty() {
         return Err("`models` names no model file".into());
     }
@@ -233,8 +271,8 @@ fn plan_file(file: StudyFile, base: &Path, out: &Path, text: &str) -> Result<Vec
         ));
     }
     let mut weather = file.weather.clone();
-    weather.weather = weather.weather.map(|p| locate(base, &p));
-    weather.knmi = weather.knmi.map(|p| locate(base, &p));
+    weather.weather = weather.weather.map(|p| place.locate(&p)).transpose()?;
+    weather.knmi = weather.knmi.map(|p| place.locate(&p)).transpose()?;
     let mut scenarios: Vec<(String, PlantSpec)> = Vec::new();
     if s.nominal {
         scenarios.push(("nominal".into(), PlantSpec::NOMINAL));
@@ -266,7 +304,7 @@ fn plan_file(file: StudyFile, base: &Path, out: &Path, text: &str) -> Result<Vec
 
     let mut jobs = Vec::new();
     for model in &file.models {
-        let model_path = locate(base, model);
+        let model_path = place.locate(model)?;
         let stem = model
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
@@ -308,7 +346,7 @@ fn plan_file(file: StudyFile, base: &Path, out: &Path, text: &str) -> Result<Vec
             };
             for horizon in &horizons {
                 let spec = c
-                    .spec(horizon, base)
+                    .spec(horizon, place)
                     .map_err(|m| at_line(text, c.span.clone(), m))?;
                 for (scenario, plant) in &scenarios {
                     let mut folder = Path::new(&stem).join(slug(&c.name));
@@ -600,8 +638,8 @@ fn controller_entry(
 }
 
 impl ControllerEntry {
-    /// The controller at `horizon` (empty: none), its file paths relative to `base`.
-    fn spec(&self, horizon: &str, base: &Path) -> Result<ControllerSpec, String> {
+    /// The controller at `horizon` (empty: none), its file paths located by `place`.
+    fn spec(&self, horizon: &str, place: &Place) -> Result<ControllerSpec, String> {
         let mut fields = self.fields.clone();
         if !horizon.is_empty() {
             fields.insert("horizon".into(), toml::Value::String(horizon.into()));
@@ -609,7 +647,7 @@ impl ControllerEntry {
         for key in ["agent", "value", "inputs"] {
             if let Some(toml::Value::String(p)) = fields.get(key) {
                 if !p.starts_with("const:") {
-                    let located = locate(base, Path::new(p)).to_string_lossy().into_owned();
+                    let located = place.locate(Path::new(p))?.to_string_lossy().into_owned();
                     fields.insert(key.into(), toml::Value::String(located));
                 }
             }
@@ -618,14 +656,6 @@ impl ControllerEntry {
             .try_into::<ControllerSpec>()
             .map_err(|e| format!("controller `{}`: {}", self.name, e.message()))
     }
-}
-
-/// A path of the study file, relative to its folder: the file's canonical path where it
-/// exists (so that a job's spec names the same file however the study reaches it), as
-/// joined otherwise (the job then says that it is missing).
-fn locate(base: &Path, path: &Path) -> PathBuf {
-    let joined = base.join(path);
-    std::fs::canonicalize(&joined).unwrap_or(joined)
 }
 
 /// A name as a folder name: lower case, runs of other characters as one `-`.
@@ -652,7 +682,11 @@ mod tests {
 
     fn plan_text(text: &str) -> Result<Vec<Job>, String> {
         let file: StudyFile = toml::from_str(text).map_err(|e| e.to_string())?;
-        plan_file(file, Path::new("studies"), Path::new("/out"), text)
+        let place = Place {
+            base: Path::new("studies"),
+            data: Some(Path::new("/data")),
+        };
+        plan_file(file, &place, Path::new("/out"), text)
     }
 
     #[test]
@@ -810,6 +844,30 @@ mod tests {
     }
 
     #[test]
+    fn a_path_in_the_data_folder_is_found_there_or_refused_naming_the_variable() {
+        let text = "models = [\"m.ghm\"]\n[weather]\nweather = \"$GHM_DATA/venlo.csv\"\n\
+                    [[controllers]]\nkind = \"expert\"";
+        let jobs = plan_text(text).expect("plans");
+        let Work::Season(run) = &jobs[0].work else {
+            panic!("a season")
+        };
+        assert_eq!(
+            run.weather.weather.as_deref(),
+            Some(Path::new("/data/venlo.csv"))
+        );
+        let file: StudyFile = toml::from_str(text).expect("parses");
+        let place = Place {
+            base: Path::new("studies"),
+            data: None,
+        };
+        let e = plan_file(file, &place, Path::new("/out"), text).expect_err("no data folder");
+        assert!(
+            e.contains("GHM_DATA is not set") && e.contains("ghm import venlo"),
+            "{e}"
+        );
+    }
+
+    #[test]
     fn every_shipped_study_file_plans() {
         let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/studies");
         let mut files: Vec<_> = std::fs::read_dir(&dir)
@@ -820,7 +878,13 @@ mod tests {
         files.sort();
         assert!(files.len() >= 7, "{files:?}");
         for file in files {
-            let jobs = plan(&file, Path::new("/tmp/ghm-plan-only"))
+            let text = std::fs::read_to_string(&file).expect("reads");
+            let parsed: StudyFile = toml::from_str(&text).expect("parses");
+            let place = Place {
+                base: file.parent().expect("a folder"),
+                data: Some(Path::new("/data")),
+            };
+            let jobs = plan_file(parsed, &place, Path::new("/tmp/ghm-plan-only"), &text)
                 .unwrap_or_else(|e| panic!("{}: {e}", file.display()));
             assert!(!jobs.is_empty(), "{}", file.display());
         }

@@ -1,5 +1,5 @@
 //! GreenLight's files for the tests that need them: its model folder (the installed
-//! `greenlight==2.0.5` package, `GHM_GREENLIGHT_MODELS`, else this machine's venv path)
+//! `greenlight==2.0.5` package's `models` folder, which `GHM_GREENLIGHT_MODELS` names)
 //! and `ghm import greenlight` of its Katzin 2021 model with the Bleiswijk weather. The
 //! repository cannot ship them; `.ci/run` installs GreenLight and sets the variable.
 
@@ -8,11 +8,7 @@ use std::path::PathBuf;
 
 /// GreenLight's `models` folder, where it holds Katzin 2021; `None` otherwise.
 pub fn models() -> Option<PathBuf> {
-    let path = std::env::var_os("GHM_GREENLIGHT_MODELS")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| {
-            PathBuf::from("/work/venv-gl/lib/python3.11/site-packages/greenlight/models")
-        });
+    let path = PathBuf::from(std::env::var_os("GHM_GREENLIGHT_MODELS")?);
     path.join("katzin_2021/definition/main_katzin_2021.json")
         .is_file()
         .then_some(path)

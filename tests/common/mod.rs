@@ -1,9 +1,10 @@
-//! Helpers shared by the MPC tests, and the project's shared data folder that some of
-//! them read: the Venlo 2014 weather and the spec's reference figures, which the
-//! repository does not ship (the weather's sources state no licence). The folder is
-//! `GHM_SHARED`, else `../shared` beside the repository; a test that needs it and does
-//! not find it says on stderr that it skipped and why, unless `GHM_REQUIRE_SHARED` is set
-//! (`.ci/run`, which provides the data, so that CI runs every test).
+//! Helpers shared by the MPC tests, and the data folder that some of them read: the Venlo
+//! 2014 weather, which the repository does not ship (its sources state no licence;
+//! `ghm import venlo` makes it from the file the paper's authors published, `docs/data.md`).
+//! The folder is `GHM_DATA`, else `../shared/data` beside the repository; a test that needs
+//! it and does not find it says on stderr that it skipped and why, unless
+//! `GHM_REQUIRE_DATA` is set (`.ci/run`, which provides the data, so that CI runs every
+//! test). The library's own tests follow the same rule (`src/sim/test_data.rs`, included here).
 #![allow(dead_code)]
 
 #[cfg(feature = "cli")]
@@ -18,7 +19,7 @@ use ghm::sim::season::{run_season, SeasonConfig, StepLog};
 use ghm::sim::weather::{load_csv, Weather};
 use ghm::solve::Solver;
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Arc;
 
 /// A day of the lettuce model on the built-in weather under `controller`, on a plant
@@ -39,37 +40,15 @@ pub fn lettuce_day(
     }
 }
 
-/// The Venlo 2014 weather in the shared folder.
-pub const VENLO: &str = "data/venlo2014_30min_model_units.csv";
+/// The Venlo 2014 weather in the data folder.
+pub const VENLO: &str = ghm::sim::weather::VENLO_FILE;
 
-/// The shared data folder: `GHM_SHARED`, else `../shared` beside the repository.
-pub fn shared_dir() -> PathBuf {
-    match std::env::var_os("GHM_SHARED") {
-        Some(dir) => PathBuf::from(dir),
-        None => Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared"),
-    }
-}
+// The data folder's lookup and skip, the same file the library's own tests use.
+#[path = "../../src/sim/test_data.rs"]
+mod test_data;
+#[allow(unused_imports)] // not every test binary that declares `mod common` reads data
+pub use test_data::{dir as data_dir, file as data};
 
-/// `relative` in the shared folder, where it is there. Where it is not, `test` is skipped
-/// with a message that says how to provide it, or fails when `GHM_REQUIRE_SHARED` is set.
-pub fn shared(relative: &str, test: &str) -> Option<PathBuf> {
-    let path = shared_dir().join(relative);
-    if path.is_file() {
-        return Some(path);
-    }
-    let message = format!(
-        "{test}: needs {} from the project's shared data folder (../shared beside the \
-         repository, or set GHM_SHARED to the folder that holds {relative})",
-        path.display()
-    );
-    assert!(
-        std::env::var_os("GHM_REQUIRE_SHARED").is_none(),
-        "{message}; GHM_REQUIRE_SHARED is set"
-    );
-    // Past the test harness' capture, so that a passing run still says what it skipped.
-    let _ = writeln!(std::io::stderr(), "skipped: {message}");
-    None
-}
 pub const START_ROW: usize = 1394;
 
 pub fn plant(file: &str) -> Arc<Plant> {
@@ -79,9 +58,9 @@ pub fn plant(file: &str) -> Arc<Plant> {
 
 pub fn venlo(plant: &Plant, steps: usize) -> Weather {
     let columns = plant.model.weather_columns();
-    load_csv(&shared_dir().join(VENLO), &columns, 1800.0)
+    load_csv(&data_dir().join(VENLO), &columns, 1800.0)
         .and_then(|f| f.select(&columns, START_ROW, steps))
-        .expect("Venlo weather (the shared folder; see `shared`) must be readable")
+        .expect("Venlo weather (the data folder; see `data`) must be readable")
 }
 
 /// States along an open-loop run with a mild constant input, so that the problems below
@@ -134,4 +113,24 @@ pub fn closed_loop_with_bands(
     run_season(plant, &weather, &mut mpc, &config, &mut sink)
         .expect("the season runs")
         .metrics
+}
+
+/// Whether `program` runs (`program --version`). Where it does not, `test` is skipped with
+/// a message that says how to install it (`install`), or fails when `GHM_REQUIRE_TOOLS` is
+/// set (`.ci/run`, which installs every tool the tests use).
+pub fn tool(program: &str, install: &str, test: &str) -> bool {
+    let runs = std::process::Command::new(program)
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if runs {
+        return true;
+    }
+    let message = format!("{test}: needs `{program}`, which does not run here ({install})");
+    assert!(
+        std::env::var_os("GHM_REQUIRE_TOOLS").is_none(),
+        "{message}; GHM_REQUIRE_TOOLS is set"
+    );
+    let _ = writeln!(std::io::stderr(), "skipped: {message}");
+    false
 }

@@ -51,6 +51,11 @@ pub use knmi::load_knmi;
 use crate::lang::model::CLOCK_COLUMN;
 use std::path::{Path, PathBuf};
 
+/// The paper's Venlo 2014 weather in model units at 30 minutes, as `ghm import venlo`
+/// writes it (`crate::import::venlo`) and the lettuce tests and studies read it from the
+/// data folder (`docs/data.md`).
+pub const VENLO_FILE: &str = "venlo2014_30min_model_units.csv";
+
 // Canonical column names every source produces (model units).
 
 /// Global radiation, W m⁻².
@@ -226,12 +231,12 @@ fn positions(path: &Path, have: &[String], wanted: &[String]) -> Result<Vec<usiz
 }
 
 /// CO2 density in kg m⁻³ from a mole fraction in ppm at temperature `t_c` (°C).
-fn co2_ppm_to_kgm3(ppm: f64, t_c: f64) -> f64 {
+pub fn co2_ppm_to_kgm3(ppm: f64, t_c: f64) -> f64 {
     101325.0 * 1e-6 * ppm * 0.04401 / (8.3144598 * (t_c + 273.15))
 }
 
 /// Vapour density in kg m⁻³ from relative humidity `rh_pct` (%) at temperature `t_c` (°C).
-fn rh_to_vapour_kgm3(rh_pct: f64, t_c: f64) -> f64 {
+pub fn rh_to_vapour_kgm3(rh_pct: f64, t_c: f64) -> f64 {
     let p_sat = 610.78 * (17.2694 * t_c / (t_c + 238.3)).exp();
     (rh_pct / 100.0) * p_sat * 18.01528e-3 / (8.3144598 * (t_c + 273.15))
 }
@@ -455,32 +460,9 @@ mod tests {
     use super::*;
     use WeatherError as E;
 
-    /// The Venlo weather in the project's shared data folder (`GHM_SHARED`, else
-    /// `../shared` beside the repository), where it is there; otherwise the test says it
-    /// skipped (or fails where `GHM_REQUIRE_SHARED` is set, as in CI, which provides it).
+    /// The Venlo weather of the data folder, where it is there (`crate::sim::test_data`).
     fn venlo_file(test: &str) -> Option<std::path::PathBuf> {
-        let dir = std::env::var_os("GHM_SHARED")
-            .map(std::path::PathBuf::from)
-            .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared"));
-        let path = dir.join("data/venlo2014_30min_model_units.csv");
-        if path.is_file() {
-            return Some(path);
-        }
-        assert!(
-            std::env::var_os("GHM_REQUIRE_SHARED").is_none(),
-            "{test}: {} is missing and GHM_REQUIRE_SHARED is set",
-            path.display()
-        );
-        // Past the test harness' capture, so that a passing run says what it skipped.
-        let _ = std::io::Write::write_fmt(
-            &mut std::io::stderr(),
-            format_args!(
-                "skipped: {test}: needs {} (the shared data folder: ../shared beside the \
-                 repository, or GHM_SHARED)\n",
-                path.display()
-            ),
-        );
-        None
+        crate::sim::test_data::file(VENLO_FILE, test)
     }
 
     /// Runs `f` on `text` written to a uniquely named temp file, then removes the file.
@@ -525,8 +507,8 @@ mod tests {
     }
 
     #[test]
-    fn shared_venlo_first_step_and_period() {
-        let Some(w) = venlo("shared_venlo_first_step_and_period") else {
+    fn venlo_first_step_and_period() {
+        let Some(w) = venlo("venlo_first_step_and_period") else {
             return;
         };
         assert_eq!((w.len(), w.width(), w.period_s), (1932, 4, 1800.0));
@@ -540,8 +522,8 @@ mod tests {
     }
 
     #[test]
-    fn shared_venlo_vs_builtin_season() {
-        let Some(venlo) = venlo("shared_venlo_vs_builtin_season") else {
+    fn venlo_vs_builtin_season() {
+        let Some(venlo) = venlo("venlo_vs_builtin_season") else {
             return;
         };
         let v = season_stats(&venlo, 40);

@@ -22,19 +22,19 @@ use ghm::solve::Sqp;
 use std::path::Path;
 
 /// The week's cumulative rewards (€ m⁻²), recorded with SQP and printed by `cargo test
-/// --test shared_rlmpc -- --nocapture`. There is no outside figure for RL-guided MPC with
+/// --test venlo_rlmpc -- --nocapture`. There is no outside figure for RL-guided MPC with
 /// ghm's own agents; the tolerance is the one that separates two correct solvers on a 2-day
-/// closed loop (`shared_mpc`), far below what a change of the guidance moves.
+/// closed loop (`venlo_mpc`), far below what a change of the guidance moves.
 const RECORDED: [(&str, f64); 2] = [
     ("lettuce-thesis", -0.1160975427),
     ("lettuce", -0.2566078826),
 ];
 
 #[test]
-fn shared_first_week_of_rl_guided_mpc_solves_every_step_to_its_recorded_reward() {
-    let Some(_) = common::shared(
+fn venlo_first_week_of_rl_guided_mpc_solves_every_step_to_its_recorded_reward() {
+    let Some(_) = common::data(
         common::VENLO,
-        "shared_first_week_of_rl_guided_mpc_solves_every_step_to_its_recorded_reward",
+        "venlo_first_week_of_rl_guided_mpc_solves_every_step_to_its_recorded_reward",
     ) else {
         return;
     };

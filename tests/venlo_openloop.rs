@@ -1,5 +1,5 @@
 //! Open-loop and replay checks of the lettuce plant against the reference figures.
-//! These tests read the Venlo weather in the shared data folder (`common::shared`).
+//! These tests read the Venlo weather in the data folder (`common::data`).
 
 mod common;
 
@@ -15,9 +15,9 @@ fn plant(file: &str) -> Plant {
 
 fn venlo(plant: &Plant, steps: usize) -> ghm::sim::weather::Weather {
     let columns = plant.model.weather_columns();
-    load_csv(&common::shared_dir().join(common::VENLO), &columns, 1800.0)
+    load_csv(&common::data_dir().join(common::VENLO), &columns, 1800.0)
         .and_then(|f| f.select(&columns, START_ROW, steps))
-        .expect("Venlo weather (the shared folder) must be readable")
+        .expect("Venlo weather (the data folder) must be readable")
 }
 
 fn rel(a: f64, b: f64) -> f64 {
@@ -26,10 +26,10 @@ fn rel(a: f64, b: f64) -> f64 {
 
 /// spec/openloop-check.md: constant input (0.6, 1, 40), no rate limit, 1920 steps.
 #[test]
-fn shared_openloop_check_matches_reference_to_1e9() {
-    let Some(_) = common::shared(
+fn venlo_openloop_check_matches_reference_to_1e9() {
+    let Some(_) = common::data(
         common::VENLO,
-        "shared_openloop_check_matches_reference_to_1e9",
+        "venlo_openloop_check_matches_reference_to_1e9",
     ) else {
         return;
     };
@@ -134,8 +134,8 @@ fn shared_openloop_check_matches_reference_to_1e9() {
 
 /// reference-numbers.md §5: the first three steps of the published 1-hour MPC run.
 #[test]
-fn shared_replay_of_published_run() {
-    let Some(_) = common::shared(common::VENLO, "shared_replay_of_published_run") else {
+fn venlo_replay_of_published_run() {
+    let Some(_) = common::data(common::VENLO, "venlo_replay_of_published_run") else {
         return;
     };
     let plant = plant("models/lettuce-thesis.ghm");

@@ -1,14 +1,12 @@
-//! Exact derivatives of the lettuce step against an independent symbolic tool (CasADi SX,
-//! `spec/derivative-check.json` of the shared data folder, `common::shared`): tighter
-//! than finite differences can be.
-
-mod common;
+//! Exact derivatives of the lettuce step against an independent symbolic tool (CasADi SX;
+//! the fixture `tests/fixtures/lettuce-derivative-check.json`, its provenance in
+//! `tests/fixtures/README.md`): tighter than finite differences can be.
 
 use ghm::graph::Derivatives;
 use ghm::model::Plant;
 use serde_json::Value;
 
-const SPEC: &str = "spec/derivative-check.json";
+const FIXTURE: &str = "tests/fixtures/lettuce-derivative-check.json";
 
 fn vector(v: &Value) -> Vec<f64> {
     v.as_array()
@@ -32,12 +30,9 @@ fn max_rel(got: &[f64], want: &[f64]) -> f64 {
 }
 
 #[test]
-fn shared_step_derivatives_match_symbolic_reference() {
-    let Some(path) = common::shared(SPEC, "shared_step_derivatives_match_symbolic_reference")
-    else {
-        return;
-    };
-    let text = std::fs::read_to_string(path).expect("spec/derivative-check.json");
+fn step_derivatives_match_symbolic_reference() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(FIXTURE);
+    let text = std::fs::read_to_string(path).expect(FIXTURE);
     let spec: Value = serde_json::from_str(&text).expect("valid JSON");
     let model = ghm::lang::load(std::path::Path::new("models/lettuce-thesis.ghm"))
         .unwrap_or_else(|e| panic!("{}", e.render()));

@@ -9,10 +9,10 @@ use ghm::nlp::{Nlp, Ocp};
 use ghm::solve::{kkt_residuals, Ipopt, IpoptOptions, Solver, Sqp, SqpOptions, Start};
 
 #[test]
-fn shared_sqp_and_ipopt_reach_the_same_objective_at_ten_steps() {
-    let Some(_) = common::shared(
+fn venlo_sqp_and_ipopt_reach_the_same_objective_at_ten_steps() {
+    let Some(_) = common::data(
         common::VENLO,
-        "shared_sqp_and_ipopt_reach_the_same_objective_at_ten_steps",
+        "venlo_sqp_and_ipopt_reach_the_same_objective_at_ten_steps",
     ) else {
         return;
     };
@@ -63,10 +63,10 @@ fn shared_sqp_and_ipopt_reach_the_same_objective_at_ten_steps() {
 }
 
 #[test]
-fn shared_two_day_closed_loop_with_ipopt_matches_the_peer_reward() {
-    let Some(_) = common::shared(
+fn venlo_two_day_closed_loop_with_ipopt_matches_the_peer_reward() {
+    let Some(_) = common::data(
         common::VENLO,
-        "shared_two_day_closed_loop_with_ipopt_matches_the_peer_reward",
+        "venlo_two_day_closed_loop_with_ipopt_matches_the_peer_reward",
     ) else {
         return;
     };

@@ -8,10 +8,10 @@ use ghm::nlp::{Bands, Nlp, Ocp};
 use ghm::solve::{kkt_residuals, Ipm, Solver, Sqp, Start};
 
 #[test]
-fn shared_sqp_solutions_satisfy_kkt_at_ten_steps_of_the_season() {
-    let Some(_) = common::shared(
+fn venlo_sqp_solutions_satisfy_kkt_at_ten_steps_of_the_season() {
+    let Some(_) = common::data(
         common::VENLO,
-        "shared_sqp_solutions_satisfy_kkt_at_ten_steps_of_the_season",
+        "venlo_sqp_solutions_satisfy_kkt_at_ten_steps_of_the_season",
     ) else {
         return;
     };
@@ -64,10 +64,10 @@ fn shared_sqp_solutions_satisfy_kkt_at_ten_steps_of_the_season() {
 /// The 2-day closed loop of spec/peer-solvers.md: IPOPT's cumulative reward is −0.074630
 /// at 1 h and −0.069817 at 6 h (thesis variant).
 #[test]
-fn shared_two_day_closed_loop_matches_the_peer_reward() {
-    let Some(_) = common::shared(
+fn venlo_two_day_closed_loop_matches_the_peer_reward() {
+    let Some(_) = common::data(
         common::VENLO,
-        "shared_two_day_closed_loop_matches_the_peer_reward",
+        "venlo_two_day_closed_loop_matches_the_peer_reward",
     ) else {
         return;
     };
@@ -92,13 +92,13 @@ fn shared_two_day_closed_loop_matches_the_peer_reward() {
 ///
 /// Planning with the model's `plan` bounds (humidity 78 % instead of 80 %) is a problem of
 /// ghm's own, with no peer figure: its reward, −0.0838453, was recorded once from this
-/// test (`cargo test --test shared_mpc paper`) and is pinned to the same 2e-5. It is below
+/// test (`cargo test --test venlo_mpc paper`) and is pinned to the same 2e-5. It is below
 /// the scoring bands' reward, as the back-off costs yield.
 #[test]
-fn shared_paper_variant_closed_loop_matches_the_peer_reward() {
-    let Some(_) = common::shared(
+fn venlo_paper_variant_closed_loop_matches_the_peer_reward() {
+    let Some(_) = common::data(
         common::VENLO,
-        "shared_paper_variant_closed_loop_matches_the_peer_reward",
+        "venlo_paper_variant_closed_loop_matches_the_peer_reward",
     ) else {
         return;
     };

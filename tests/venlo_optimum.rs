@@ -53,8 +53,8 @@ fn optimum_reward(file: &str) -> f64 {
 /// 1920 stages the stage-wise one meets a cost to go of 1e150 (it ended with a numerical
 /// error before the fallback).
 #[test]
-fn shared_paper_season_optimum_equals_ipopts() {
-    let Some(_) = common::shared(common::VENLO, "shared_paper_season_optimum_equals_ipopts") else {
+fn venlo_paper_season_optimum_equals_ipopts() {
+    let Some(_) = common::data(common::VENLO, "venlo_paper_season_optimum_equals_ipopts") else {
         return;
     };
     let reward = optimum_reward("models/lettuce.ghm");
@@ -62,9 +62,8 @@ fn shared_paper_season_optimum_equals_ipopts() {
 }
 
 #[test]
-fn shared_thesis_season_optimum_equals_ipopts() {
-    let Some(_) = common::shared(common::VENLO, "shared_thesis_season_optimum_equals_ipopts")
-    else {
+fn venlo_thesis_season_optimum_equals_ipopts() {
+    let Some(_) = common::data(common::VENLO, "venlo_thesis_season_optimum_equals_ipopts") else {
         return;
     };
     let reward = optimum_reward("models/lettuce-thesis.ghm");
