@@ -435,17 +435,26 @@ fn train_checkpoints_resumes_and_ships_a_policy_that_policy_runs() {
     let _ = std::fs::remove_dir_all(&season);
 }
 
-#[test]
-fn value_and_rlmpc_run_end_to_end_with_the_expert_guide() {
-    let value = temp_dir("value");
+/// `ghm value MODEL --guide GUIDE` (a small fit: `trajectories` roll-outs of a day, two
+/// epochs) into `value`, then `ghm rlmpc` guided by it and its value network over `days`
+/// at a 1 h horizon into `run`, with `extra` options; both must succeed. Returns rlmpc's
+/// standard output.
+fn value_then_rlmpc(
+    model: &str,
+    guide: &str,
+    trajectories: &str,
+    (value, run): (&Path, &Path),
+    days: &str,
+    extra: &[&str],
+) -> String {
     let v = value.to_str().expect("utf-8 temp path");
     let (ok, out, err) = ghm(&[
         "value",
-        "models/lettuce.ghm",
+        model,
         "--guide",
-        "expert",
+        guide,
         "--trajectories",
-        "20",
+        trajectories,
         "--epochs",
         "2",
         "--days",
@@ -456,24 +465,38 @@ fn value_and_rlmpc_run_end_to_end_with_the_expert_guide() {
     assert!(ok, "{err}");
     assert!(out.contains("value at the season start"), "{out}");
     assert!(value.join("value.json").is_file() && value.join("value_curve.png").is_file());
-    let run = temp_dir("rlmpc");
     let r = run.to_str().expect("utf-8 temp path");
-    let (ok, out, err) = ghm(&[
+    let mut args = vec![
         "rlmpc",
-        "models/lettuce.ghm",
+        model,
         "--guide",
-        "expert",
+        guide,
         "--value",
         v,
         "--days",
-        "0.5",
+        days,
         "--horizon",
         "1h",
-        "--compare",
         "--out",
         r,
-    ]);
+    ];
+    args.extend_from_slice(extra);
+    let (ok, out, err) = ghm(&args);
     assert!(ok, "{err}");
+    out
+}
+
+#[test]
+fn value_and_rlmpc_run_end_to_end_with_the_expert_guide() {
+    let (value, run) = (temp_dir("value"), temp_dir("rlmpc"));
+    let out = value_then_rlmpc(
+        "models/lettuce.ghm",
+        "expert",
+        "20",
+        (&value, &run),
+        "0.5",
+        &["--compare"],
+    );
     assert!(
         out.contains("RL-MPC (expert)") && out.contains("MPC "),
         "{out}"
@@ -495,6 +518,7 @@ fn value_and_rlmpc_run_end_to_end_with_the_expert_guide() {
         "nowhere",
     ]);
     assert!(!ok && err.contains("no value network"), "{err}");
+    assert!(err.contains("ghm value --guide expert"), "{err}");
     let _ = std::fs::remove_dir_all(&value);
     let _ = std::fs::remove_dir_all(&run);
 }
@@ -504,42 +528,17 @@ fn value_and_rlmpc_run_end_to_end_with_the_expert_guide() {
 /// for lettuce; a model without rules is refused with the inputs that have none.
 #[test]
 fn value_and_rlmpc_follow_the_models_rules_as_their_guide() {
-    let value = temp_dir("value-rules");
-    let v = value.to_str().expect("utf-8 temp path");
-    let (ok, out, err) = ghm(&[
-        "value",
+    let (value, run) = (temp_dir("value-rules"), temp_dir("rlmpc-rules"));
+    let out = value_then_rlmpc(
         "models/lamp-clock.ghm",
-        "--guide",
         "rules",
-        "--trajectories",
         "16",
-        "--epochs",
-        "2",
-        "--days",
-        "1",
-        "--out",
-        v,
-    ]);
-    assert!(ok, "{err}");
-    assert!(out.contains("value at the season start"), "{out}");
-    let run = temp_dir("rlmpc-rules");
-    let r = run.to_str().expect("utf-8 temp path");
-    let (ok, out, err) = ghm(&[
-        "rlmpc",
-        "models/lamp-clock.ghm",
-        "--guide",
-        "rules",
-        "--value",
-        v,
-        "--days",
+        (&value, &run),
         "0.25",
-        "--horizon",
-        "1h",
-        "--out",
-        r,
-    ]);
-    assert!(ok, "{err}");
+        &[],
+    );
     assert!(out.contains("rlmpc[rules]"), "{out}");
+    let v = value.to_str().expect("utf-8 temp path");
     let (ok, _, err) = ghm(&[
         "value",
         "models/lettuce.ghm",

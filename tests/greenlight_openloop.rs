@@ -199,14 +199,23 @@ fn open_loop_matches_greenlight_point_by_point() {
     );
     assert!(worst < 1e-5, "{worst:e}");
     let check = ghm::model::verify::verify_step_derivatives(&plant, &season_points);
-    eprintln!("Hessian of λᵀ(x⁺, y): {check:?}");
     assert!(check.non_finite.is_none(), "{check:?}");
-    assert!(check.hessian_max_rel_error < 1e-3, "{check:?}");
+    let worst = state_hessian_error(&plant, &season_points);
+    eprintln!(
+        "Hessian of λᵀx⁺ at {} points of the season: worst difference {worst:.2e} of its largest entry",
+        season_points.len()
+    );
+    assert!(worst < 1e-4, "{worst:e}");
 }
 
-/// The largest difference between the exact `∂x⁺/∂(x, u)` and central differences with
-/// steps of 1e-5 · max(|z|, 1), each scaled by the largest entry of its row. (The outputs'
-/// rows are left out: GreenLight's rules switch within such steps.)
+/// The largest difference between the exact `∂x⁺/∂(x, u)` and central differences, each
+/// scaled by the largest entry of its row; per entry the closer of two steps, 1e-5 and
+/// 1e-6 · max(|z|, 1). One step does not fit every direction: along a strongly curved one
+/// the larger step's truncation error shows (measured 2026-12-05 on CI's reference: ∂ of
+/// state 8 wrt input 29, −6.0201, off by 1.44e-5 of its row at 1e-5, 1.3e-7 at 1e-6,
+/// 7.6e-9 at 1e-7), along a flat one the smaller step's Newton round-off. A wrong
+/// derivative is off at both. (The outputs' rows are left out: GreenLight's rules switch
+/// within such steps.)
 fn state_jacobian_error(plant: &Plant, points: &[Vec<f64>]) -> f64 {
     let l = plant.layout;
     let wrt: Vec<usize> = (0..l.nx + l.nu).collect();
@@ -216,17 +225,81 @@ fn state_jacobian_error(plant: &Plant, points: &[Vec<f64>]) -> f64 {
     for z in points {
         let exact = der.jacobian(plant, z).jacobian.clone();
         for (col, &i) in wrt.iter().enumerate() {
-            let h = 1e-5 * z[i].abs().max(1.0);
-            let (mut up, mut dn) = (z.clone(), z.clone());
-            up[i] += h;
-            dn[i] -= h;
-            let f_up = der.jacobian(plant, &up).values.clone();
-            let f_dn = der.jacobian(plant, &dn).values.clone();
+            let differences =
+                central_differences(z, i, |at| der.jacobian(plant, at).values.clone());
             for r in 0..l.nx {
                 let row = &exact[r * n..(r + 1) * n];
                 let scale = row.iter().fold(1e-300f64, |m, v| m.max(v.abs()));
-                let difference = (f_up[r] - f_dn[r]) / (2.0 * h);
-                let error = (difference - row[col]).abs() / scale;
+                let error = closer(&differences, r, row[col], scale);
+                worst = if error.is_nan() || worst.is_nan() {
+                    f64::NAN
+                } else {
+                    worst.max(error)
+                };
+            }
+        }
+    }
+    worst
+}
+
+/// Central differences of `f` along variable `i` of `z`, at the two steps of
+/// [`state_jacobian_error`]: per step, the quotient of every entry of `f`.
+fn central_differences(
+    z: &[f64],
+    i: usize,
+    mut f: impl FnMut(&[f64]) -> Vec<f64>,
+) -> [Vec<f64>; 2] {
+    [1e-5, 1e-6].map(|step| {
+        let h = step * z[i].abs().max(1.0);
+        let (mut up, mut dn) = (z.to_vec(), z.to_vec());
+        up[i] += h;
+        dn[i] -= h;
+        let (f_up, f_dn) = (f(&up), f(&dn));
+        f_up.iter()
+            .zip(&f_dn)
+            .map(|(a, b)| (a - b) / (2.0 * h))
+            .collect()
+    })
+}
+
+/// Entry `r`'s error, relative to `scale`, of the closer of the two differences to `exact`.
+fn closer(differences: &[Vec<f64>; 2], r: usize, exact: f64, scale: f64) -> f64 {
+    differences
+        .iter()
+        .map(|d| (d[r] - exact).abs() / scale)
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// The largest difference between the exact Hessian of `λᵀx⁺` wrt `(x, u)` (λ fixed and
+/// positive, the outputs weighted 0) and central differences of its exact gradient, scaled
+/// by the Hessian's largest entry; per entry the closer of the two steps of
+/// [`state_jacobian_error`]. The outputs are left out for the reason given there: with
+/// them (`ghm::model::verify`, every output weighted) the differences straddle a switch of
+/// the rules at some points of a season (0.15 of the largest entry on CI's reference of
+/// 2026-12-05, where the state rows agree to 1e-6).
+fn state_hessian_error(plant: &Plant, points: &[Vec<f64>]) -> f64 {
+    let l = plant.layout;
+    let wrt: Vec<usize> = (0..l.nx + l.nu).collect();
+    let n = wrt.len();
+    let weights: Vec<f64> = (0..plant.n_step_outputs())
+        .map(|i| {
+            if i < l.nx {
+                0.3 + 0.7 * ((i * 7 + 3) % 11) as f64 / 11.0
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let mut der = StepDerivatives::new(plant, &wrt);
+    let mut worst = 0.0f64;
+    for z in points {
+        let exact = der.hessian(plant, z, &weights).hessian.clone();
+        let scale = exact.iter().fold(1e-300f64, |m, v| m.max(v.abs()));
+        for (col, &i) in wrt.iter().enumerate() {
+            let differences =
+                central_differences(z, i, |at| der.hessian(plant, at, &weights).gradient.clone());
+            for r in 0..n {
+                let error = closer(&differences, r, exact[r * n + col], scale);
                 worst = if error.is_nan() || worst.is_nan() {
                     f64::NAN
                 } else {

@@ -191,24 +191,16 @@ pub fn guide_factory(
         GuideChoice::Sac => {
             let file =
                 policy.ok_or_else(|| JobError::unset("agent", "the SAC guide needs a policy"))?;
-            let policy = Policy::new(plant, file).map_err(fail)?;
-            Ok(Box::new(move || {
-                Box::new(policy.clone()) as Box<dyn Controller + Send>
-            }))
+            Ok(clones_of(Policy::new(plant, file).map_err(fail)?))
         }
-        GuideChoice::Expert => {
-            let expert = Expert::new(plant.clone()).map_err(fail)?;
-            Ok(Box::new(move || {
-                Box::new(expert.clone()) as Box<dyn Controller + Send>
-            }))
-        }
-        GuideChoice::Rules => {
-            let rules = Rules::new(plant.clone()).map_err(fail)?;
-            Ok(Box::new(move || {
-                Box::new(rules.clone()) as Box<dyn Controller + Send>
-            }))
-        }
+        GuideChoice::Expert => Ok(clones_of(Expert::new(plant.clone()).map_err(fail)?)),
+        GuideChoice::Rules => Ok(clones_of(Rules::new(plant.clone()).map_err(fail)?)),
     }
+}
+
+/// A factory of fresh copies of `guide`, which is built once.
+fn clones_of<G: Controller + Clone + Send + Sync + 'static>(guide: G) -> GuideFactory {
+    Box::new(move || Box::new(guide.clone()) as Box<dyn Controller + Send>)
 }
 
 /// The files a spec's controller reads, loaded and checked against the plant: the policy
@@ -295,10 +287,10 @@ pub fn resolve_value(
             path.display(),
             format!(
                 "no value network there: fit one with `ghm value{}` and name its folder",
-                match spec.guide {
-                    GuideChoice::Sac => "",
-                    GuideChoice::Expert => " --guide expert",
-                    GuideChoice::Rules => " --guide rules",
+                if spec.guide == GuideChoice::default() {
+                    String::new()
+                } else {
+                    format!(" --guide {}", spec.guide.name())
                 }
             ),
         ));
