@@ -136,16 +136,25 @@ fn samples_from_mat(path: &Path, m: &mat::Matrix) -> Result<Vec<Sample>, ImportE
             ),
         ));
     }
-    let first = m.at(0, 0);
-    Ok((0..m.rows)
+    let rows: Vec<[f64; 6]> = (0..m.rows)
+        .map(|r| std::array::from_fn(|c| m.at(r, c)))
+        .collect();
+    Ok(samples(&rows, DAY_S))
+}
+
+/// The samples of rows of the six published columns, time counted from the first row in
+/// seconds (`seconds_per_unit` of the file's time unit), rounded to the second.
+fn samples(rows: &[[f64; 6]], seconds_per_unit: f64) -> Vec<Sample> {
+    let first = rows[0][0];
+    rows.iter()
         .map(|r| Sample {
-            time_s: ((m.at(r, 0) - first) * DAY_S).round(),
-            rad_wm2: m.at(r, 1),
-            temp_c: m.at(r, 2),
-            rh_pct: m.at(r, 3),
-            co2_ppm: m.at(r, 5),
+            time_s: ((r[0] - first) * seconds_per_unit).round(),
+            rad_wm2: r[1],
+            temp_c: r[2],
+            rh_pct: r[3],
+            co2_ppm: r[5],
         })
-        .collect())
+        .collect()
 }
 
 /// The samples of the headerless CSV: six numbers a line, time in seconds (or in days
@@ -157,7 +166,7 @@ fn samples_from_csv(path: &Path, bytes: &[u8]) -> Result<Vec<Sample>, ImportErro
             "not text: expected six numbers a line, or a .mat file".into(),
         )
     })?;
-    let mut rows: Vec<(usize, [f64; 6])> = Vec::new();
+    let mut rows: Vec<[f64; 6]> = Vec::new();
     for (i, line) in text.lines().enumerate() {
         if line.trim().is_empty() {
             continue;
@@ -181,24 +190,14 @@ fn samples_from_csv(path: &Path, bytes: &[u8]) -> Result<Vec<Sample>, ImportErro
                 .parse()
                 .map_err(|_| bad(format!("`{cell}` is not a number")))?;
         }
-        rows.push((i + 1, row));
+        rows.push(row);
     }
     if rows.len() < 2 {
         return Err(format(path, "fewer than two rows".into()));
     }
-    let step = rows[1].1[0] - rows[0].1[0];
-    let scale = if step > 0.0 && step < 1.0 { DAY_S } else { 1.0 };
-    let first = rows[0].1[0];
-    Ok(rows
-        .iter()
-        .map(|(_, r)| Sample {
-            time_s: ((r[0] - first) * scale).round(),
-            rad_wm2: r[1],
-            temp_c: r[2],
-            rh_pct: r[3],
-            co2_ppm: r[5],
-        })
-        .collect())
+    let step = rows[1][0] - rows[0][0];
+    let seconds_per_unit = if step > 0.0 && step < 1.0 { DAY_S } else { 1.0 };
+    Ok(samples(&rows, seconds_per_unit))
 }
 
 /// The samples must be evenly spaced, and the period a multiple of their step, so that
@@ -352,40 +351,50 @@ pub mod mat {
         let mut found = Vec::new();
         while !top.done() {
             let (kind, body) = top.element()?;
-            let inflated;
-            let (kind, body) = if kind == MI_COMPRESSED {
-                let mut out = Vec::new();
+            let variable = if kind == MI_COMPRESSED {
+                let mut inflated = Vec::new();
                 flate2::read::ZlibDecoder::new(body)
-                    .read_to_end(&mut out)
+                    .read_to_end(&mut inflated)
                     .map_err(|e| format!("a compressed variable does not inflate: {e}"))?;
-                inflated = out;
                 let mut inner = Reader {
                     bytes: &inflated,
                     at: 0,
                     big_endian,
                 };
-                let (k, b) = inner.element()?;
-                (k, b.to_vec())
+                let (kind, body) = inner.element()?;
+                variable(kind, body, big_endian)?
             } else {
-                (kind, body.to_vec())
+                variable(kind, body, big_endian)?
             };
-            if kind == MI_MATRIX {
-                if let Some(variable) = matrix(&body, big_endian)? {
-                    found.push(variable);
-                }
-            }
+            found.extend(variable);
         }
-        let names: Vec<String> = found.iter().map(|(n, _)| n.clone()).collect();
         if let Some(i) = found.iter().position(|(n, _)| n == name) {
             return Ok(found.swap_remove(i).1);
         }
         match found.len() {
             1 => Ok(found.remove(0).1),
             0 => Err("no real numeric matrix in the file".into()),
-            _ => Err(format!(
-                "no variable `{name}`, and several matrices to choose from: {}",
-                names.join(", ")
-            )),
+            _ => {
+                let names: Vec<&str> = found.iter().map(|(n, _)| n.as_str()).collect();
+                Err(format!(
+                    "no variable `{name}`, and several matrices to choose from: {}",
+                    names.join(", ")
+                ))
+            }
+        }
+    }
+
+    /// The name and values of a data element of type `kind`, where it is a real numeric
+    /// 2-D matrix.
+    fn variable(
+        kind: u32,
+        body: &[u8],
+        big_endian: bool,
+    ) -> Result<Option<(String, Matrix)>, String> {
+        if kind == MI_MATRIX {
+            matrix(body, big_endian)
+        } else {
+            Ok(None)
         }
     }
 
