@@ -541,8 +541,10 @@ fn the_rl_environment_runs_the_imported_model() {
 }
 
 /// The economic problem on the imported model (`models/greenlight/tomato_economic.ghm`,
-/// issue 35): it loads on top of the shipped model, and a day of GreenLight's rules earns
-/// a positive crop value and pays for heat, lamps and CO₂, every term finite.
+/// issue 35): it loads on top of the shipped model, a day of GreenLight's rules grows fruit
+/// and pays for heat, lamps and CO₂, every term finite, and its terminal value rises with
+/// the crop's warmth (tCan24) and development (tCanSum) and falls to zero slope at a full
+/// buffer.
 #[test]
 fn the_economic_tomato_model_prices_a_day_of_the_rules() {
     let Some(models) = common::greenlight::models_or_skip("the economic tomato test") else {
@@ -558,19 +560,54 @@ fn the_economic_tomato_model_prices_a_day_of_the_rules() {
             ..ghm::job::WeatherSpec::default()
         },
     );
-    let m = &season.plant.model;
+    let plant = &season.plant;
+    let m = &plant.model;
     let names: Vec<&str> = m.terms.iter().map(|t| t.info.name.as_str()).collect();
     assert_eq!(
         names,
-        ["crop_value", "heat_cost", "electricity_cost", "co2_cost"]
+        [
+            "fruit_revenue",
+            "heat_cost",
+            "electricity_cost",
+            "co2_cost",
+            "crop_outlook"
+        ]
     );
-    let totals: Vec<f64> = (0..names.len())
+    let totals: Vec<f64> = (0..plant.stage_terms.len())
         .map(|i| season.logs.iter().map(|log| log.terms[i]).sum())
         .collect();
     eprintln!("a day of the rules: {names:?} = {totals:?}");
     assert!(totals.iter().all(|t| t.is_finite()), "{totals:?}");
-    assert!(totals[0] > 0.0, "the crop gains value: {totals:?}");
+    assert!(totals[0] > 0.0, "the fruit grows: {totals:?}");
     assert!(totals[1..].iter().all(|t| *t < 0.0), "costs: {totals:?}");
+
+    let tape = plant
+        .terminal_tape()
+        .expect("the model has a terminal term");
+    let l = plant.layout;
+    let state_index = |name: &str| m.states.iter().position(|s| s.info.name == name).unwrap();
+    let mut inputs = vec![0.0; l.n_base()];
+    inputs[..l.nx].copy_from_slice(&season.logs.last().unwrap().state);
+    inputs[l.p(0)..l.p(0) + l.np].copy_from_slice(&m.nominal_params());
+    let gradient = |inputs: &[f64]| ghm::graph::gradient_f64(tape, inputs, &[1.0]);
+    let g = gradient(&inputs);
+    eprintln!("terminal value {:?}", tape.eval_f64(&inputs));
+    assert!(tape.eval_f64(&inputs)[0] > 0.0);
+    for warmer in ["tCan24", "tCanSum"] {
+        assert!(
+            g[state_index(warmer)] > 0.0,
+            "∂V/∂{warmer} = {}",
+            g[state_index(warmer)]
+        );
+    }
+    let buffer = state_index("cBuf");
+    inputs[buffer] = 20e3;
+    let at_cap = gradient(&inputs)[buffer];
+    assert!(
+        at_cap.abs() < 1e-3 * g[buffer].abs(),
+        "∂V/∂cBuf at the cap {at_cap} vs {}",
+        g[buffer]
+    );
 }
 
 /// The shipped model with its `sample` line's integrator and sub-steps replaced.

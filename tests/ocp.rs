@@ -236,6 +236,83 @@ fn terminal_cost_and_terminal_box_shape_the_solution() {
     assert!(temp_at_end(&boxed, &capped.x) <= cap + 1e-9);
 }
 
+/// Lettuce with `terminal` terms appended to its model file.
+fn lettuce_with_terminal(terms: &str) -> Arc<Plant> {
+    let text = std::fs::read_to_string("models/lettuce.ghm").unwrap() + terms;
+    let model =
+        ghm::lang::load_str("lettuce.ghm", &text).unwrap_or_else(|e| panic!("{}", e.render()));
+    Arc::new(Plant::new(model))
+}
+
+/// The model's own `terminal` terms join every horizon's objective with exact first and
+/// second derivatives, added to a terminal cost set from outside.
+#[test]
+fn model_terminal_terms_have_exact_derivatives_beside_an_outside_terminal_cost() {
+    use ghm::nlp::LinearTerminalCost;
+    let terms = "\nterminal crop_left [EUR m^-2] = 4 * dry_weight - 0.002 * (temp_air - 18)^2 + 30 * co2_air * hum_air\nterminal air_left [EUR m^-2] = 1e-3 * log(1 + temp_air^2)\n";
+    let with_terms = || problem_with(lettuce_with_terminal(terms), 3);
+    first_derivatives_match_central_differences(with_terms());
+    hessian_matches(with_terms());
+    let (mut ocp, x, lambda) = with_terms();
+    ocp.set_terminal_cost(Some(Box::new(LinearTerminalCost {
+        value: 0.5,
+        gradient: vec![0.0, 2.0, -0.01, 0.0],
+        anchor: vec![0.0; 4],
+    })));
+    first_derivatives_match_central_differences((ocp, x.clone(), lambda.clone()));
+
+    // The objective is the plain problem's plus minus the terms at x_N.
+    let (mut plain, _, _) = problem(3);
+    let (mut ocp, _, _) = with_terms();
+    let x_n = ocp.state_at(&x, 3).to_vec();
+    let (w, c, t, h) = (x_n[0], x_n[1], x_n[2], x_n[3]);
+    let reward = 4.0 * w - 0.002 * (t - 18.0).powi(2) + 30.0 * c * h + 1e-3 * (1.0 + t * t).ln();
+    let gap = ocp.objective(&x) - plain.objective(&x);
+    assert!(
+        (gap + reward).abs() <= 1e-12 * reward.abs().max(1.0),
+        "{gap} vs {reward}"
+    );
+}
+
+/// A linear `terminal` term in the model file plans as the same cost set from outside.
+#[test]
+fn a_linear_model_terminal_plans_as_the_same_outside_terminal_cost() {
+    use ghm::nlp::LinearTerminalCost;
+    use ghm::solve::{Ipm, Solver, Start};
+    let n = 4;
+    let forecast: Vec<f64> = (0..n).flat_map(|_| [120.0, 7e-4, 6.0, 6e-3]).collect();
+    let solve = |mut ocp: Ocp| {
+        let plant = ocp.plant().clone();
+        ocp.set_problem(
+            0,
+            &plant.model.initial_state(),
+            &plant.model.start_input(),
+            &forecast,
+        )
+        .unwrap();
+        let mut start = vec![0.0; ocp.n_vars()];
+        ocp.initial_point(&mut start);
+        let s = Ipm::default().solve(&mut ocp, Start::cold(&start));
+        assert!(s.status.is_success(), "{:?}", s.status);
+        s.x
+    };
+    let in_model = lettuce_with_terminal("\nterminal warm_end [EUR m^-2] = 0.01 * temp_air\n");
+    let from_model = solve(Ocp::new(in_model, n).unwrap());
+    let mut outside = Ocp::new(plant("models/lettuce.ghm"), n).unwrap();
+    outside.set_terminal_cost(Some(Box::new(LinearTerminalCost {
+        value: 0.0,
+        gradient: vec![0.0, 0.0, -0.01, 0.0],
+        anchor: vec![0.0; 4],
+    })));
+    let from_outside = solve(outside);
+    let gap = from_model
+        .iter()
+        .zip(&from_outside)
+        .map(|(a, b)| (a - b).abs() / a.abs().max(1.0))
+        .fold(0.0, f64::max);
+    assert!(gap <= 1e-9, "plans differ by {gap:e}");
+}
+
 /// `Solver::set_iteration_limit` caps the next solves and is lifted by `None`.
 #[test]
 fn iteration_limit_caps_sqp_until_lifted() {

@@ -224,6 +224,9 @@ pub struct Plant {
     pub stage_term_index: Vec<usize>,
     step: StepKernel,
     output: Tape,
+    /// The `terminal` terms' rewards over `(x, u, d, p)` (they read `x` and `p` only);
+    /// `None` when the model has none.
+    terminal: Option<Tape>,
 }
 
 /// The scratch of a [`StepKernel`].
@@ -308,6 +311,14 @@ impl Plant {
             None => StepKernel::Unrolled(graph.compile(&all, layout.n_base())),
         };
         let output = graph.compile(&output_nodes, layout.n_base());
+        let terminal_nodes: Vec<NodeId> = model
+            .terms
+            .iter()
+            .filter(|t| t.kind == TermKind::Terminal)
+            .map(|t| t.node)
+            .collect();
+        let terminal =
+            (!terminal_nodes.is_empty()).then(|| graph.compile(&terminal_nodes, layout.n_base()));
         Plant {
             model,
             layout,
@@ -318,7 +329,14 @@ impl Plant {
             stage_term_index,
             step,
             output,
+            terminal,
         }
+    }
+
+    /// The tape of the model's `terminal` terms: inputs `(x, u, d, p)`, one output per
+    /// term, its reward for ending a horizon in `x`. `None` when the model has none.
+    pub fn terminal_tape(&self) -> Option<&Tape> {
+        self.terminal.as_ref()
     }
 
     /// The tape behind the step. For an explicit integrator, the step itself: inputs

@@ -18,6 +18,7 @@ mod terminal;
 
 pub use ocp::{Bands, Ocp, OcpError, OcpLayout};
 pub use stages::Stages;
+pub(crate) use terminal::ModelTerminal;
 pub use terminal::{LinearTerminalCost, TerminalBox, TerminalCost};
 
 use std::ops::Range;

@@ -12,15 +12,16 @@
 //! (`s + w·(y − lo) ≥ 0` below, `s − w·(y − hi) ≥ 0` above, with `y = g(F(x_j, u_j))` and
 //! the band's planning bounds), and for `j ≥ 1` the rate limits `|u_j − u_{j−1}| ≤ δ`. The
 //! first rate limit, against the input applied at the previous step, is a bound on `u_0`.
-//! The objective is `Σ_j (−Σ stage rewards_j + Σ s_j) + T(x_N)` with an optional terminal
-//! cost `T`; an optional terminal box bounds `x_N` and `u_{N−1}`.
+//! The objective is `Σ_j (−Σ stage rewards_j + Σ s_j) + T(x_N)`, where the terminal cost
+//! `T` is minus the model's `terminal` rewards plus an optional cost set from outside (a
+//! value network); an optional terminal box bounds `x_N` and `u_{N−1}`.
 //!
 //! Every derivative is assembled per stage from one forward-over-reverse sweep of the
 //! plant's step tape with respect to `(x_j, u_j)`: the Jacobian rows of a stage and the
 //! dense Hessian block of a stage come out together, and no Hessian of the whole NLP is
 //! ever formed.
 
-use super::{Nlp, Pattern, Stages, TerminalBox, TerminalCost};
+use super::{ModelTerminal, Nlp, Pattern, Stages, TerminalBox, TerminalCost};
 use crate::model::Plant;
 use crate::model::{StepDerivatives, StepWorkspace};
 use rayon::prelude::*;
@@ -187,6 +188,9 @@ pub struct Ocp {
     forecast: Vec<f64>,
     params: Vec<f64>,
     step: usize,
+    /// The model's own `terminal` terms, part of every horizon's objective.
+    model_terminal: Option<ModelTerminal>,
+    /// A terminal cost set from outside (RL-guided MPC's value), added to the model's.
     terminal_cost: Option<Box<dyn TerminalCost>>,
     terminal_box: Option<TerminalBox>,
     jacobian_pattern: Pattern,
@@ -202,6 +206,9 @@ pub struct Ocp {
     terminal_value: f64,
     terminal_gradient: Vec<f64>,
     terminal_hessian: Vec<f64>,
+    /// The outside terminal cost's derivatives, before they are added to the model's.
+    hook_gradient: Vec<f64>,
+    hook_hessian: Vec<f64>,
     cached_x: Vec<f64>,
     cached: Cached,
 }
@@ -268,6 +275,8 @@ impl Ocp {
             terminal_value: 0.0,
             terminal_gradient: vec![0.0; l.nx],
             terminal_hessian: vec![0.0; l.nx * l.nx],
+            hook_gradient: vec![0.0; l.nx],
+            hook_hessian: vec![0.0; l.nx * l.nx],
             cached_x: Vec::new(),
             cached: Cached::Nothing,
             state: model.initial_state(),
@@ -275,6 +284,7 @@ impl Ocp {
             forecast: vec![0.0; horizon * l.nd],
             params: model.nominal_params(),
             step: 0,
+            model_terminal: ModelTerminal::of(&plant),
             terminal_cost: None,
             terminal_box: None,
             jacobian_pattern: Pattern::default(),
@@ -354,14 +364,21 @@ impl Ocp {
         Ok(())
     }
 
-    /// Sets or removes the terminal cost. The Hessian pattern changes with it.
+    /// Sets or removes the terminal cost, added to the model's own `terminal` terms. The
+    /// Hessian pattern changes with it.
     pub fn set_terminal_cost(&mut self, cost: Option<Box<dyn TerminalCost>>) {
-        let had = self.terminal_cost.is_some();
+        let had = self.has_terminal();
         self.terminal_cost = cost;
         self.cached = Cached::Nothing;
-        if had != self.terminal_cost.is_some() {
+        if had != self.has_terminal() {
             self.build_patterns();
         }
+    }
+
+    /// Whether the objective has a cost on `x_N` (the model's `terminal` terms, a terminal
+    /// cost set from outside, or both).
+    fn has_terminal(&self) -> bool {
+        self.model_terminal.is_some() || self.terminal_cost.is_some()
     }
 
     /// Sets or removes the terminal box on `x_N` and `u_{N−1}`; it takes effect in
@@ -529,15 +546,34 @@ impl Ocp {
         self.cached = level;
     }
 
+    /// The cost on `x_N`: the model's `terminal` terms plus the outside terminal cost.
     fn evaluate_terminal(&mut self, x: &[f64]) {
         let l = self.layout;
-        if let Some(cost) = self.terminal_cost.as_mut() {
-            self.terminal_value = cost.evaluate(
-                &x[l.x(l.horizon)..l.x(l.horizon) + l.nx],
-                self.step + l.horizon,
+        let x_n = &x[l.x(l.horizon)..l.x(l.horizon) + l.nx];
+        self.terminal_value = 0.0;
+        self.terminal_gradient.fill(0.0);
+        self.terminal_hessian.fill(0.0);
+        if let Some(model) = self.model_terminal.as_mut() {
+            self.terminal_value = model.evaluate(
+                x_n,
+                &self.params,
                 &mut self.terminal_gradient,
                 &mut self.terminal_hessian,
             );
+        }
+        if let Some(cost) = self.terminal_cost.as_mut() {
+            self.terminal_value += cost.evaluate(
+                x_n,
+                self.step + l.horizon,
+                &mut self.hook_gradient,
+                &mut self.hook_hessian,
+            );
+            for (t, h) in self.terminal_gradient.iter_mut().zip(&self.hook_gradient) {
+                *t += h;
+            }
+            for (t, h) in self.terminal_hessian.iter_mut().zip(&self.hook_hessian) {
+                *t += h;
+            }
         }
     }
 
@@ -621,7 +657,7 @@ impl Ocp {
                 }
             }
         }
-        if self.terminal_cost.is_some() {
+        if self.has_terminal() {
             let x_n = l.x(l.horizon);
             for a in 0..l.nx {
                 for b in 0..=a {
@@ -644,7 +680,7 @@ impl Ocp {
                 .sum::<f64>();
             f += x[l.s(j)..l.s(j) + l.ns].iter().sum::<f64>();
         }
-        if self.terminal_cost.is_some() {
+        if self.has_terminal() {
             f += self.terminal_value;
         }
         f
@@ -682,7 +718,7 @@ impl Ocp {
             }
             gradient[l.s(j)..l.s(j) + l.ns].fill(1.0);
         }
-        if self.terminal_cost.is_some() {
+        if self.has_terminal() {
             let x_n = l.x(l.horizon);
             gradient[x_n..x_n + l.nx].copy_from_slice(&self.terminal_gradient);
         }
@@ -790,7 +826,7 @@ impl Ocp {
             });
         }
         self.evaluate_terminal(x);
-        if self.terminal_cost.is_some() {
+        if self.has_terminal() {
             let mut k = 0;
             for a in 0..l.nx {
                 for b in 0..=a {
