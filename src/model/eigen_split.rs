@@ -17,7 +17,8 @@
 //! solves of about half. The iterates are those of the unsplit matrix, up to round-off.
 //! Methods whose `A⁻¹` is not diagonalisable (SDIRK: one eigenvalue, thrice) have no split.
 
-use nalgebra::{Complex, DMatrix, DVector, Dyn, LU};
+use super::dense_lu::DenseLu;
+use nalgebra::{Complex, DMatrix, DVector};
 
 /// One diagonal block of `Λ`: its first row in `w` and its eigenvalue(s).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -119,14 +120,14 @@ impl EigenSplit {
             .iter()
             .map(|block| match *block {
                 Block::Real { gamma, .. } => {
-                    BlockFactor::Real(shifted(jacobian, n, gamma / h, |v| v).lu())
+                    BlockFactor::Real(DenseLu::factor(shifted(jacobian, n, gamma / h, |v| v), n))
                 }
-                Block::Pair { alpha, beta, .. } => BlockFactor::Pair(
+                Block::Pair { alpha, beta, .. } => BlockFactor::Pair(DenseLu::factor(
                     shifted(jacobian, n, Complex::new(alpha / h, -beta / h), |v| {
                         Complex::new(v, 0.0)
-                    })
-                    .lu(),
-                ),
+                    }),
+                    n,
+                )),
             })
             .collect();
         SplitMatrix {
@@ -135,8 +136,8 @@ impl EigenSplit {
                 n,
                 h,
                 work: vec![0.0; self.t.nrows() * n],
-                real: DVector::zeros(n),
-                complex: DVector::zeros(n),
+                real: vec![0.0; 2 * n],
+                complex: vec![Complex::new(0.0, 0.0); 2 * n],
             },
         }
     }
@@ -195,30 +196,33 @@ fn eigenvector(m: &DMatrix<f64>, lambda: Complex<f64>) -> Option<DVector<Complex
     }))
 }
 
-/// `shift · I − J` over the scalar `T`; an entry of `J` that is not finite (a term like
-/// `|x|^0.33` at `x = 0`) is left out: the matrix only steers the iteration.
+/// `shift · I − J` over the scalar `T`, row-major; an entry of `J` that is not finite (a
+/// term like `|x|^0.33` at `x = 0`) is left out: the matrix only steers the iteration.
 fn shifted<T: nalgebra::ComplexField + Copy>(
     jacobian: &[f64],
     n: usize,
     shift: T,
     from: impl Fn(f64) -> T,
-) -> DMatrix<T> {
-    DMatrix::from_fn(n, n, |r, c| {
-        let d = jacobian[r * n + c];
-        let d = from(if d.is_finite() { d } else { 0.0 });
-        if r == c {
-            shift - d
-        } else {
-            -d
-        }
-    })
+) -> Vec<T> {
+    jacobian
+        .iter()
+        .enumerate()
+        .map(|(k, &d)| {
+            let d = from(if d.is_finite() { d } else { 0.0 });
+            if k / n == k % n {
+                shift - d
+            } else {
+                -d
+            }
+        })
+        .collect()
 }
 
-/// The LU factors of one block of the split Newton matrix.
+/// The LU factors of one block of the split Newton matrix (`None`: the block is singular).
 #[derive(Debug, Clone)]
 enum BlockFactor {
-    Real(LU<f64, Dyn, Dyn>),
-    Pair(LU<Complex<f64>, Dyn, Dyn>),
+    Real(Option<DenseLu<f64>>),
+    Pair(Option<DenseLu<Complex<f64>>>),
 }
 
 /// The split Newton matrix of one Jacobian and sub-step length, factored, with its scratch.
@@ -235,8 +239,10 @@ struct Scratch {
     n: usize,
     h: f64,
     work: Vec<f64>,
-    real: DVector<f64>,
-    complex: DVector<Complex<f64>>,
+    /// A real block's right-hand side and its solve's scratch, `n` each.
+    real: Vec<f64>,
+    /// A pair's complex right-hand side and its solve's scratch, `n` each.
+    complex: Vec<Complex<f64>>,
 }
 
 impl SplitMatrix {
@@ -248,11 +254,13 @@ impl SplitMatrix {
         EigenSplit::apply(&split.t_inv, r, &mut scratch.work, n);
         for (block, factor) in split.blocks.iter().zip(&self.factors) {
             let solved = match (*block, factor) {
-                (Block::Real { row, gamma }, BlockFactor::Real(lu)) => {
-                    scratch.solve_real(lu, row, gamma)
+                (Block::Real { row, gamma }, BlockFactor::Real(Some(lu))) => {
+                    scratch.solve_real(lu, row, gamma);
+                    true
                 }
-                (Block::Pair { row, alpha, beta }, BlockFactor::Pair(lu)) => {
-                    scratch.solve_pair(lu, row, alpha, beta)
+                (Block::Pair { row, alpha, beta }, BlockFactor::Pair(Some(lu))) => {
+                    scratch.solve_pair(lu, row, alpha, beta);
+                    true
                 }
                 _ => false,
             };
@@ -267,48 +275,33 @@ impl SplitMatrix {
 
 impl Scratch {
     /// `(γ/h · I − J) w = γ/h · ρ` for rows `row` of `self.work`, in place.
-    fn solve_real(&mut self, lu: &LU<f64, Dyn, Dyn>, row: usize, gamma: f64) -> bool {
+    fn solve_real(&mut self, lu: &DenseLu<f64>, row: usize, gamma: f64) {
         let n = self.n;
         let g = gamma / self.h;
         let rho = &mut self.work[row * n..(row + 1) * n];
-        for (v, x) in self.real.iter_mut().zip(rho.iter()) {
-            *v = g * x;
+        let (rhs, scratch) = self.real.split_at_mut(n);
+        for (v, x) in rho.iter_mut().zip(rhs.iter_mut()) {
+            *x = g * *v;
         }
-        if !lu.solve_mut(&mut self.real) {
-            return false;
-        }
-        rho.copy_from_slice(self.real.as_slice());
-        true
+        lu.solve(rhs, scratch);
+        rho.copy_from_slice(rhs);
     }
 
     /// `((α − iβ)/h · I − J)(w₁ + i w₂) = ((α ρ₁ + β ρ₂) + i (α ρ₂ − β ρ₁)) / h` for rows
     /// `row` and `row + 1` of `self.work`, in place.
-    fn solve_pair(
-        &mut self,
-        lu: &LU<Complex<f64>, Dyn, Dyn>,
-        row: usize,
-        alpha: f64,
-        beta: f64,
-    ) -> bool {
+    fn solve_pair(&mut self, lu: &DenseLu<Complex<f64>>, row: usize, alpha: f64, beta: f64) {
         let n = self.n;
         let (a, b) = (alpha / self.h, beta / self.h);
         let (first, second) = self.work[row * n..(row + 2) * n].split_at_mut(n);
-        for ((v, r1), r2) in self.complex.iter_mut().zip(first.iter()).zip(second.iter()) {
+        let (rhs, scratch) = self.complex.split_at_mut(n);
+        for ((v, r1), r2) in rhs.iter_mut().zip(first.iter()).zip(second.iter()) {
             *v = Complex::new(a * r1 + b * r2, a * r2 - b * r1);
         }
-        if !lu.solve_mut(&mut self.complex) {
-            return false;
-        }
-        for ((v, w1), w2) in self
-            .complex
-            .iter()
-            .zip(first.iter_mut())
-            .zip(second.iter_mut())
-        {
+        lu.solve(rhs, scratch);
+        for ((v, w1), w2) in rhs.iter().zip(first.iter_mut()).zip(second.iter_mut()) {
             *w1 = v.re;
             *w2 = v.im;
         }
-        true
     }
 }
 

@@ -10,6 +10,7 @@
 //! language's [`Model`] and the graph.
 
 mod builder;
+mod dense_lu;
 mod eigen_split;
 pub mod finite;
 mod implicit;
