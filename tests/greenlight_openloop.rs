@@ -610,6 +610,46 @@ fn the_economic_tomato_model_prices_a_day_of_the_rules() {
     );
 }
 
+/// Economic MPC on the tomato from GreenLight's initial state: the first steps, the
+/// hardest (a cold start, the greenhouse far from any plan of the controller's), solve
+/// without a fallback. Their cold start is the roll-out of the model's rules; an
+/// optimiser's step values no longer fall back on split sub-steps where its derivatives
+/// cannot follow (both failed here before: `invalid_number`, then `max_iterations`).
+#[test]
+fn economic_mpc_solves_the_first_steps_from_greenlights_initial_state() {
+    let Some(models) = common::greenlight::models_or_skip("the economic MPC test") else {
+        return;
+    };
+    let weather = common::greenlight::import(&models, "greenlight-mpc", &[]).join("weather.csv");
+    let spec = ghm::job::RunSpec {
+        model: Path::new(env!("CARGO_MANIFEST_DIR")).join("models/greenlight/tomato_economic.ghm"),
+        weather: ghm::job::WeatherSpec {
+            weather: Some(weather),
+            steps: Some(3),
+            ..ghm::job::WeatherSpec::default()
+        },
+        plant: ghm::job::PlantSpec::NOMINAL,
+        controller: ghm::job::ControllerSpec::Mpc(ghm::job::MpcSpec {
+            horizon: "1h".into(),
+            warm_start: Some(ghm::control::WarmStart::PrimalDual),
+            bands: ghm::job::BandsChoice::Planning,
+            ..ghm::job::MpcSpec::default()
+        }),
+    };
+    let season = ghm::job::run_season_logs(&spec).unwrap_or_else(|e| panic!("{e}"));
+    for log in &season.logs {
+        let r = &log.record;
+        eprintln!("step {}: {:?}, {} iterations", log.step, r.status, r.iterations);
+        assert!(
+            r.status.is_some_and(|s| s.is_success()) && r.fallback.is_none(),
+            "step {}: {:?}, fallback {:?}",
+            log.step,
+            r.status,
+            r.fallback
+        );
+    }
+}
+
 /// The shipped model with its `sample` line's integrator and sub-steps replaced.
 fn shipped_with(integrator: &str) -> Plant {
     let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/greenlight/katzin_2021.ghm");

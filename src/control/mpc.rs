@@ -16,7 +16,10 @@
 //! Venlo season"). When it fails, the controller falls back, in this order:
 //!
 //! 1. `cold_start`: solve again from the held previous input, simulated (under guidance,
-//!    first from a fresh roll-out of the guide, its terminal region re-centred on it);
+//!    first from a fresh roll-out of the guide, its terminal region re-centred on it; for a
+//!    model with a `rule` on every input, first from a roll-out of those rules, a plan of
+//!    the growers': the GreenLight season's first step took 64 iterations from it against
+//!    196 from the held input);
 //! 2. `shifted_plan`: apply the second input of the last successful plan;
 //! 3. `guide_input` (RL-guided MPC only): the guide's own input;
 //! 4. `hold_input`: hold the previous input (within the bounds and rate limits).
@@ -28,6 +31,7 @@
 //! and writes the starting point; its own input is one more fallback, before the held
 //! input.
 
+use super::Rules;
 use super::{
     ControlError, Controller, Decision, Fallback, Observation, Plan, StepRecord, WarmStart,
 };
@@ -79,6 +83,9 @@ pub struct Mpc {
     /// Iteration cap of a primal-dual warm solve before the cold start takes over.
     pub warm_iteration_limit: Option<usize>,
     guidance: Option<Box<dyn Guidance>>,
+    /// The model's own rules, where every input has one: a cold start tries their
+    /// roll-out first.
+    rules: Option<Rules>,
 }
 
 impl Mpc {
@@ -89,6 +96,7 @@ impl Mpc {
         horizon: usize,
         solver: Box<dyn Solver>,
     ) -> Result<Mpc, OcpError> {
+        let rules = Rules::new(Arc::clone(&plant)).ok();
         let ocp = Ocp::new(plant, horizon)?;
         let (n, m) = (ocp.n_vars(), ocp.n_cons());
         Ok(Mpc {
@@ -103,6 +111,7 @@ impl Mpc {
             warm_iteration_limit: Some(solver.warm_iteration_budget()),
             solver,
             guidance: None,
+            rules,
         })
     }
 
@@ -284,10 +293,50 @@ impl Mpc {
                 return Ok((guided, effort));
             }
         }
+        if self.guidance.is_none() && self.rules_roll_out(observation)? {
+            let ruled = self.solver.solve(&mut self.ocp, Start::cold(&self.start_x));
+            effort.add(&ruled);
+            if ruled.status.is_success() {
+                return Ok((ruled, effort));
+            }
+        }
         self.ocp.initial_point(&mut self.start_x);
         let plain = self.solver.solve(&mut self.ocp, Start::cold(&self.start_x));
         effort.add(&plain);
         Ok((plain, effort))
+    }
+
+    /// Writes into the starting point the roll-out of the model's rules from the measured
+    /// state over the forecast; false (nothing written) where the model has no rules.
+    fn rules_roll_out(&mut self, observation: &Observation) -> Result<bool, ControlError> {
+        let Some(rules) = self.rules.as_mut() else {
+            return Ok(false);
+        };
+        let plant = Arc::clone(self.ocp.plant());
+        let (horizon, nd) = (self.ocp.horizon(), plant.layout.nd);
+        let params = plant.model.nominal_params();
+        let mut state = observation.state.to_vec();
+        let mut previous = observation.previous_input.to_vec();
+        let mut inputs = Vec::with_capacity(horizon * previous.len());
+        for j in 0..horizon {
+            let weather = &self.forecast[j * nd..];
+            let input = rules
+                .decide(&Observation {
+                    step: observation.step + j,
+                    state: &state,
+                    outputs: &[],
+                    previous_input: &previous,
+                    forecast: weather,
+                })?
+                .input;
+            state = plant
+                .step(&state, &input, &weather[..nd], &params)
+                .next_state;
+            inputs.extend_from_slice(&input);
+            previous = input;
+        }
+        self.ocp.rollout(&inputs, &mut self.start_x);
+        Ok(true)
     }
 
     /// The fallback inputs when no solve succeeded.

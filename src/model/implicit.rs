@@ -19,7 +19,8 @@
 //!   steps too, in a simulation's workspace: RADAU5's rule), from the last sub-step's
 //!   collocation polynomial continued; where it contracts slowly, `J` is taken afresh at
 //!   the start, and at every stage where that slows too; a step that still fails is
-//!   split into up to 64 pieces. In a simulation, a sub-step that converged at a rate of
+//!   split into up to 64 pieces in a simulation (an optimiser's values stay NaN there, as its
+//!   derivatives would). In a simulation, a sub-step that converged at a rate of
 //!   contraction above 0.2 has the next one take `J` afresh at its start, from its
 //!   extrapolated stages. In a simulation,
 //!   converged when the error left, estimated from the rate of contraction
@@ -697,8 +698,15 @@ impl ImplicitStep {
     }
 
     /// One step: `(x⁺, stage terms, y(x⁺))` into `outputs`, all NaN if Newton failed.
+    ///
+    /// Only a simulation falls back on split sub-steps: an optimiser's values are those its
+    /// derivatives (which need the model's own sub-steps) can follow, so a point they
+    /// cannot solve has no value either and the line search steps back from it. (With the
+    /// fallback, such a point had a value and NaN derivatives: the interior point stopped
+    /// with `invalid_number` at the GreenLight season's first steps.)
     pub fn eval(&self, ws: &mut ImplicitWorkspace, base: &[f64], outputs: &mut [f64]) {
-        if self.solve(ws, base).is_err() && self.solve_split(ws, base).is_err() {
+        let may_split = ws.purpose == Purpose::Simulation;
+        if self.solve(ws, base).is_err() && (!may_split || self.solve_split(ws, base).is_err()) {
             outputs.fill(f64::NAN);
             return;
         }
