@@ -639,7 +639,10 @@ fn economic_mpc_solves_the_first_steps_from_greenlights_initial_state() {
     let season = ghm::job::run_season_logs(&spec).unwrap_or_else(|e| panic!("{e}"));
     for log in &season.logs {
         let r = &log.record;
-        eprintln!("step {}: {:?}, {} iterations", log.step, r.status, r.iterations);
+        eprintln!(
+            "step {}: {:?}, {} iterations",
+            log.step, r.status, r.iterations
+        );
         assert!(
             r.status.is_some_and(|s| s.is_success()) && r.fallback.is_none(),
             "step {}: {:?}, fallback {:?}",

@@ -137,9 +137,10 @@ fn check_folder(out: &Path, overwrite: bool) -> Result<(), EmbedError> {
     Ok(())
 }
 
-/// `explicit`, else `libghm.a` beside the running executable, else the newest
+/// `explicit`, else the newest of `libghm.a` beside the running executable and the
 /// `deps/libghm-*.a` there (where cargo leaves it when it builds the library for the tests
-/// only, without copying it up).
+/// only, without copying it up: a `libghm.a` beside it from an earlier `cargo build` is
+/// then older than the code the executable runs).
 fn find_runtime(explicit: Option<&Path>) -> Result<PathBuf, EmbedError> {
     if let Some(path) = explicit {
         return if path.is_file() {
@@ -153,10 +154,7 @@ fn find_runtime(explicit: Option<&Path>) -> Result<PathBuf, EmbedError> {
         .and_then(|exe| exe.parent().map(Path::to_path_buf))
         .unwrap_or_default();
     let beside = dir.join(RUNTIME_LIBRARY);
-    if beside.is_file() {
-        return Ok(beside);
-    }
-    let newest_in_deps = std::fs::read_dir(dir.join("deps"))
+    let in_deps = std::fs::read_dir(dir.join("deps"))
         .into_iter()
         .flatten()
         .filter_map(Result::ok)
@@ -164,9 +162,11 @@ fn find_runtime(explicit: Option<&Path>) -> Result<PathBuf, EmbedError> {
             let name = e.file_name().to_string_lossy().into_owned();
             name.starts_with("libghm-") && name.ends_with(".a")
         })
-        .filter_map(|e| Some((e.metadata().ok()?.modified().ok()?, e.path())))
-        .max();
-    newest_in_deps
+        .map(|e| e.path());
+    std::iter::once(beside.clone())
+        .chain(in_deps)
+        .filter_map(|path| Some((path.metadata().ok()?.modified().ok()?, path)))
+        .max()
         .map(|(_, path)| path)
         .ok_or_else(|| missing_runtime(&beside))
 }

@@ -17,6 +17,7 @@ mod implicit;
 mod penalty;
 pub mod singular;
 mod step_derivatives;
+mod terminal;
 pub mod verify;
 
 pub use crate::lang::model::{Layout, SoftBand};
@@ -26,6 +27,7 @@ pub use builder::{
 };
 pub use penalty::{band_penalty, StagePenalty};
 pub use step_derivatives::StepDerivatives;
+pub use terminal::ModelTerminalCost;
 
 use crate::graph::{Graph, NodeId, Tape, Workspace};
 use crate::lang::ast::TermKind;

@@ -18,7 +18,6 @@ mod terminal;
 
 pub use ocp::{Bands, Ocp, OcpError, OcpLayout};
 pub use stages::Stages;
-pub(crate) use terminal::ModelTerminal;
 pub use terminal::{LinearTerminalCost, TerminalBox, TerminalCost};
 
 use std::ops::Range;

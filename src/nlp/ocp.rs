@@ -21,9 +21,9 @@
 //! dense Hessian block of a stage come out together, and no Hessian of the whole NLP is
 //! ever formed.
 
-use super::{ModelTerminal, Nlp, Pattern, Stages, TerminalBox, TerminalCost};
+use super::{Nlp, Pattern, Stages, TerminalBox, TerminalCost};
 use crate::model::Plant;
-use crate::model::{StepDerivatives, StepWorkspace};
+use crate::model::{ModelTerminalCost, StepDerivatives, StepWorkspace};
 use rayon::prelude::*;
 use std::ops::Range;
 use std::sync::Arc;
@@ -189,7 +189,7 @@ pub struct Ocp {
     params: Vec<f64>,
     step: usize,
     /// The model's own `terminal` terms, part of every horizon's objective.
-    model_terminal: Option<ModelTerminal>,
+    model_terminal: Option<ModelTerminalCost>,
     /// A terminal cost set from outside (RL-guided MPC's value), added to the model's.
     terminal_cost: Option<Box<dyn TerminalCost>>,
     terminal_box: Option<TerminalBox>,
@@ -284,7 +284,7 @@ impl Ocp {
             forecast: vec![0.0; horizon * l.nd],
             params: model.nominal_params(),
             step: 0,
-            model_terminal: ModelTerminal::of(&plant),
+            model_terminal: ModelTerminalCost::of(&plant),
             terminal_cost: None,
             terminal_box: None,
             jacobian_pattern: Pattern::default(),
@@ -555,6 +555,7 @@ impl Ocp {
         self.terminal_hessian.fill(0.0);
         if let Some(model) = self.model_terminal.as_mut() {
             self.terminal_value = model.evaluate(
+                &self.plant,
                 x_n,
                 &self.params,
                 &mut self.terminal_gradient,
