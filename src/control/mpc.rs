@@ -9,8 +9,8 @@
 //! corrections, [`WarmStart::PrimalMultipliers`]), SQP from the shifted primal point and
 //! multipliers ([`WarmStart::PrimalDual`]). Its status is checked every step. A
 //! primal-dual warm solve is capped at [`Mpc::warm_iteration_limit`] iterations (the
-//! solver's [`Solver::warm_iteration_budget`]: 15 for SQP, 40 for the interior-point
-//! method and IPOPT): from a shifted solution SQP needs only a few, and one that needs
+//! solver's [`Solver::warm_iteration_budget`]: 15 for SQP, 40 for IPOPT, 80 for the
+//! interior-point method): from a shifted solution SQP needs only a few, and one that needs
 //! many more is usually stuck on a flat stretch of the economic cost, where a cold start is
 //! the better use of time (measured: `docs/benchmarks.md`, "Economic MPC over the 40-day
 //! Venlo season"). When it fails, the controller falls back, in this order:
