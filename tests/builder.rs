@@ -442,6 +442,15 @@ fn the_builder_refuses_what_the_language_refuses() {
     );
     assert_eq!(
         refused(|b| {
+            let (z, _) = e(b);
+            let weather = b.disturbance("weather");
+            b.der(z, 0.0);
+            b.terminal("value", z + weather);
+        }),
+        BuildError::TerminalReadsControl("value".into())
+    );
+    assert_eq!(
+        refused(|b| {
             b.disturbance("t1").clock();
             b.disturbance("t2").clock();
         }),

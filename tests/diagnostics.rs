@@ -674,6 +674,21 @@ der temp = -temp + time + hours
 );
 
 bad!(
+    terminal_reads_an_input_through_a_let,
+    2,
+    r#"
+sample 30 [min]
+state temp [°C] = 15
+input heating [W] in [0, 100]
+disturbance outside [°C] value 5
+let warmth [°C] = temp + heating / 100
+der temp = (heating - 10 * (temp - outside)) / 3600
+terminal warm_end [EUR] = 0.01 * warmth
+terminal mild_end [EUR] = 0.01 * (temp - outside)
+"#
+);
+
+bad!(
     rule_reads_an_input,
     1,
     r#"

@@ -15,11 +15,11 @@
 //! the better use of time (measured: `docs/benchmarks.md`, "Economic MPC over the 40-day
 //! Venlo season"). When it fails, the controller falls back, in this order:
 //!
-//! 1. `cold_start`: solve again from the held previous input, simulated (under guidance,
-//!    first from a fresh roll-out of the guide, its terminal region re-centred on it; for a
-//!    model with a `rule` on every input, first from a roll-out of those rules, a plan of
-//!    the growers': the GreenLight season's first step took 64 iterations from it against
-//!    196 from the held input);
+//! 1. `cold_start`: solve again from the held previous input, simulated; first, under
+//!    guidance, from a fresh roll-out of the guide, its terminal region re-centred on it,
+//!    and without guidance, on a model with a `rule` on every input, from a roll-out of
+//!    those rules, a plan of the growers' (measured in `docs/benchmarks.md`, "Economic MPC
+//!    of the GreenLight tomato, priced on its fruit");
 //! 2. `shifted_plan`: apply the second input of the last successful plan;
 //! 3. `guide_input` (RL-guided MPC only): the guide's own input;
 //! 4. `hold_input`: hold the previous input (within the bounds and rate limits).
@@ -266,8 +266,9 @@ impl Mpc {
     /// on it, is tried first (capped like the warm start): the held input's trajectory
     /// usually lies outside a region built around the shifted plan, and its first QP is
     /// then infeasible. The guided attempt is skipped when `guide_tried` (the step's first
-    /// solve already started from that roll-out, and would fail the same way). Returns the
-    /// solution and the iterations and Hessian corrections of every attempt.
+    /// solve already started from that roll-out, and would fail the same way). Without
+    /// guidance, a roll-out of the model's rules is tried first where every input has one.
+    /// Returns the solution and the iterations and Hessian corrections of every attempt.
     fn solve_cold(
         &mut self,
         observation: &Observation,
@@ -307,7 +308,7 @@ impl Mpc {
     }
 
     /// Writes into the starting point the roll-out of the model's rules from the measured
-    /// state over the forecast; false (nothing written) where the model has no rules.
+    /// state over the forecast; false (nothing written) where some input has no rule.
     fn rules_roll_out(&mut self, observation: &Observation) -> Result<bool, ControlError> {
         let Some(rules) = self.rules.as_mut() else {
             return Ok(false);

@@ -1,6 +1,6 @@
 //! LU factors of a small dense matrix, real or complex, kept row by row for the triangular
 //! solves that an implicit step's Newton iteration repeats: each row's dot product runs
-//! over contiguous memory, with no bounds checks and no allocation. (nalgebra's generic LU
+//! over contiguous memory, with no allocation. (nalgebra's generic LU
 //! solves, column by column, took a fifth of a GreenLight season's time.)
 
 use nalgebra::Complex;

@@ -20,10 +20,9 @@
 //!   collocation polynomial continued; where it contracts slowly, `J` is taken afresh at
 //!   the start, and at every stage where that slows too; a step that still fails is
 //!   split into up to 64 pieces in a simulation (an optimiser's values stay NaN there, as its
-//!   derivatives would). In a simulation, a sub-step that converged at a rate of
-//!   contraction above 0.2 has the next one take `J` afresh at its start, from its
-//!   extrapolated stages. In a simulation,
-//!   converged when the error left, estimated from the rate of contraction
+//!   derivatives would). A sub-step that converged at a rate of contraction above 0.2
+//!   has the next one take `J` afresh at its start, from its extrapolated stages. In a
+//!   simulation, converged when the error left, estimated from the rate of contraction
 //!   (`η ‖Δ‖`, Hairer & Wanner IV.8), is below 1e-5 scaled; for derivatives, at a scaled
 //!   correction of 1e-10 ([`Purpose`]); both below the integration error, so that the
 //!   derivatives below are those of the step actually taken. (Measured on the GreenLight
@@ -294,8 +293,8 @@ pub(crate) struct ImplicitWorkspace {
     post_ws: Workspace<f64>,
     /// The factored Newton matrix of the last sub-step solved, and its sub-step length.
     newton: Option<(NewtonMatrix, f64)>,
-    /// The stage increments of the last sub-step solved and its length: the start of the
-    /// next sub-step's iteration, extrapolated.
+    /// The stage increments of the last sub-step solved: the start of the next sub-step's
+    /// iteration, extrapolated.
     previous: Vec<f64>,
     /// The length of that sub-step; `None` before the first.
     previous_h: Option<f64>,

@@ -27,7 +27,7 @@ pub use builder::{
 };
 pub use penalty::{band_penalty, StagePenalty};
 pub use step_derivatives::StepDerivatives;
-pub use terminal::ModelTerminalCost;
+pub(crate) use terminal::ModelTerminalCost;
 
 use crate::graph::{Graph, NodeId, Tape, Workspace};
 use crate::lang::ast::TermKind;

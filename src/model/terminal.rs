@@ -6,7 +6,7 @@ use crate::graph::Derivatives;
 
 /// The derivatives of a plant's terminal tape with respect to the state.
 #[derive(Debug, Clone)]
-pub struct ModelTerminalCost {
+pub(crate) struct ModelTerminalCost {
     derivatives: Derivatives,
     inputs: Vec<f64>,
     weights: Vec<f64>,
@@ -14,7 +14,7 @@ pub struct ModelTerminalCost {
 
 impl ModelTerminalCost {
     /// The terminal cost of `plant`'s model, or `None` when it declares no `terminal`.
-    pub fn of(plant: &Plant) -> Option<ModelTerminalCost> {
+    pub(crate) fn of(plant: &Plant) -> Option<ModelTerminalCost> {
         let tape = plant.terminal_tape()?;
         let nx = plant.layout.nx;
         Some(ModelTerminalCost {
@@ -26,7 +26,7 @@ impl ModelTerminalCost {
 
     /// `−Σ terminal rewards` of `plant` at `state` and `params`; writes the gradient and
     /// the (`nx × nx`, row-major) Hessian.
-    pub fn evaluate(
+    pub(crate) fn evaluate(
         &mut self,
         plant: &Plant,
         state: &[f64],

@@ -365,7 +365,7 @@ impl Ocp {
     }
 
     /// Sets or removes the terminal cost, added to the model's own `terminal` terms. The
-    /// Hessian pattern changes with it.
+    /// Hessian pattern changes with it where the model has no `terminal` terms.
     pub fn set_terminal_cost(&mut self, cost: Option<Box<dyn TerminalCost>>) {
         let had = self.has_terminal();
         self.terminal_cost = cost;

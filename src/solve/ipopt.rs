@@ -142,7 +142,7 @@ impl Solver for Ipopt {
         self.iteration_limit = limit;
     }
 
-    /// 40, like the interior point's: from `mu_init = 1e-4` IPOPT's monotone barrier often
+    /// 40 (the interior point's is 80): from `mu_init = 1e-4` IPOPT's monotone barrier often
     /// needs more iterations to its tolerance than SQP's 15. With that budget the warm solve
     /// ran out on most of the paper season's steps at 6 h, each then re-solved cold (some
     /// solves failed, and the steps took much longer); with 40, a handful of cold

@@ -280,6 +280,9 @@ impl<'d> Checker<'d> {
                         Context::Stage
                     };
                     let n = self.lower(expr, ctx);
+                    if *kind == TermKind::Terminal {
+                        self.terminal_reads_only_the_state(name, expr, n, &inputs, &dists);
+                    }
                     let node = if *kind == TermKind::Cost { self.graph.neg(n) } else { n };
                     terms.push(TermDecl {
                         info: info(name, doc),

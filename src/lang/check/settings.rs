@@ -95,6 +95,62 @@ impl Checker<'_> {
         })
     }
 
+    /// The first graph variable in `slots` that `node` reads (through lets and outputs).
+    fn first_variable_read(
+        &self,
+        node: crate::graph::NodeId,
+        slots: std::ops::Range<usize>,
+    ) -> Option<usize> {
+        self.graph
+            .reachable(&[node])
+            .into_iter()
+            .find_map(|n| match self.graph.node(n) {
+                crate::graph::Node::Var(v) => Some(v as usize).filter(|v| slots.contains(v)),
+                _ => None,
+            })
+    }
+
+    /// Refuses a `terminal` term that reads an input or a disturbance (directly or through
+    /// a let or an output), naming it: a terminal value is worth the state a horizon ends
+    /// in, and is evaluated where no step's input or weather is given.
+    pub(super) fn terminal_reads_only_the_state(
+        &mut self,
+        name: &Name,
+        expr: &Expr,
+        node: crate::graph::NodeId,
+        inputs: &[InputDecl],
+        dists: &[DisturbanceDecl],
+    ) {
+        let (nx, nu, nd) = (self.layout.nx, self.layout.nu, self.layout.nd);
+        let read = match self.first_variable_read(node, nx..nx + nu + nd) {
+            Some(v) if v < nx + nu => {
+                Some(("input", inputs.get(v - nx).map(|d| d.info.name.clone())))
+            }
+            Some(v) => Some((
+                "disturbance",
+                dists.get(v - nx - nu).map(|d| d.info.name.clone()),
+            )),
+            None => None,
+        };
+        if let Some((kind, read_name)) = read {
+            let a_kind = if kind == "input" {
+                "an input"
+            } else {
+                "a disturbance"
+            };
+            let read_name = read_name.unwrap_or_else(|| a_kind.to_string());
+            self.diags.push(
+                Diagnostic::error(
+                    "E029",
+                    expr.span(),
+                    format!("`terminal {}` reads the {kind} `{read_name}`", name.text),
+                )
+                .label(format!("reads {a_kind}"))
+                .help("a terminal value is worth the state a horizon ends in: write it, and the lets and outputs it uses, from states and parameters only"),
+            );
+        }
+    }
+
     /// Lowers each input's `rule` into the graph, once the lets it reads can be; a rule
     /// that reads an input (directly or through a let) is refused, naming the input: a
     /// rule decides the inputs, so it cannot read them.
@@ -110,18 +166,8 @@ impl Checker<'_> {
                 continue;
             };
             let node = self.lower(expr, super::Context::Dynamics);
-            let read =
-                self.graph
-                    .reachable(&[node])
-                    .into_iter()
-                    .find_map(|n| match self.graph.node(n) {
-                        crate::graph::Node::Var(v) => {
-                            let v = v as usize;
-                            (v >= self.layout.nx && v < self.layout.nx + self.layout.nu)
-                                .then(|| v - self.layout.nx)
-                        }
-                        _ => None,
-                    });
+            let (nx, nu) = (self.layout.nx, self.layout.nu);
+            let read = self.first_variable_read(node, nx..nx + nu).map(|v| v - nx);
             if let Some(u) = read {
                 let read_name = inputs.get(u).map_or("an input", |d| d.info.name.as_str());
                 self.diags.push(

@@ -129,6 +129,9 @@ pub enum BuildError {
         "the rule of input `{0}` reads an input: write it from states, disturbances and parameters"
     )]
     RuleReadsInput(String),
+    /// A `terminal` term reads an input or a disturbance.
+    #[error("`terminal {0}` reads an input or a disturbance: a terminal value is worth the state a horizon ends in; write it from states and parameters")]
+    TerminalReadsControl(String),
     /// `next(x)` was used outside a reward or cost: in the place named (`der x`,
     /// `output y`, `terminal v`, `rule of u`).
     #[error("`{0}` uses `next(...)`, which only rewards and costs may: dynamics, outputs and rules use the current state")]
@@ -828,6 +831,11 @@ impl Parts {
             places.push((format!("output {}", o.info.name), o.node));
         }
         for t in self.terms.iter().filter(|t| t.kind == TermKind::Terminal) {
+            if self.reads(t.node, |s| {
+                matches!(s, Slot::Input(_) | Slot::Disturbance(_))
+            }) {
+                return Err(BuildError::TerminalReadsControl(t.info.name.clone()));
+            }
             places.push((format!("terminal {}", t.info.name), t.node));
         }
         for u in &self.inputs {
