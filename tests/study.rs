@@ -1,7 +1,7 @@
 //! `ghm study` end to end on `examples/studies/tiny.toml`: every job planned runs into its
 //! folder and into `results.csv`; a second run recomputes nothing; a study killed halfway
 //! completes when run again, with the same figures as one never stopped; a job whose spec
-//! changed runs again.
+//! or model text changed runs again.
 
 mod common;
 
@@ -443,4 +443,48 @@ fn timing_rows(dir: &Path) -> Vec<Vec<String>> {
     lines
         .map(|l| l.split(',').map(String::from).collect())
         .collect()
+}
+
+/// A season whose model file changed since it ran is run again, not counted as done: a
+/// study's spec names the file, its `summary.json` the text it ran on.
+#[test]
+fn a_study_runs_again_the_seasons_whose_model_changed() {
+    let dir = temp_dir("study-model-changed");
+    std::fs::create_dir_all(&dir).unwrap();
+    let lettuce = std::fs::read_to_string("models/lettuce.ghm").unwrap();
+    std::fs::write(dir.join("m.ghm"), &lettuce).unwrap();
+    let study = dir.join("s.toml");
+    std::fs::write(
+        &study,
+        "models = [\"m.ghm\"]\n[weather]\ndays = 0.5\n[[controllers]]\nname = \"expert\"\nkind = \"expert\"\n",
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let args = [
+        "study",
+        study.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    let (ok, said, err) = ghm(&args);
+    assert!(
+        ok && said.contains("1 jobs: 1 run now, 0 done before"),
+        "{said}\n{err}"
+    );
+    let (ok, said, err) = ghm(&args);
+    assert!(
+        ok && said.contains("1 jobs: 0 run now, 1 done before"),
+        "{said}\n{err}"
+    );
+
+    let priced = lettuce.replace("\nmodel ", "\n# priced anew\nmodel ");
+    assert_ne!(priced, lettuce, "models/lettuce.ghm has no `model` line");
+    std::fs::write(dir.join("m.ghm"), priced).unwrap();
+    let (ok, said, err) = ghm(&args);
+    assert!(
+        ok && said.contains("1 jobs: 1 run now, 0 done before"),
+        "{said}\n{err}"
+    );
+    assert!(err.contains("its model file changed since it ran"), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -41,8 +41,13 @@ pub fn write_atomically<E: std::fmt::Display>(
 
 /// SHA-256 of the model file and its imports, in load order.
 pub fn model_hash(plant: &Plant) -> String {
+    sources_hash(&plant.model)
+}
+
+/// The SHA-256 of a model's source files (the file and those it imports), in hex.
+pub fn sources_hash(model: &crate::lang::model::Model) -> String {
     let mut h = Sha256::new();
-    for f in &plant.model.sources.files {
+    for f in &model.sources.files {
         h.update(f.text.as_bytes());
     }
     h.finalize().iter().map(|b| format!("{b:02x}")).collect()

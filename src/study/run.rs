@@ -4,7 +4,7 @@
 //! complete job ([`report::write_results`]).
 
 use crate::job::folder;
-use crate::job::output::{io_err, progress_bar};
+use crate::job::output::{io_err, progress_bar, sources_hash};
 use crate::job::train::run_train_job;
 use crate::job::value::run_value_job;
 use crate::job::{resume_season_job, run_season_job, JobError, JobOptions};
@@ -95,14 +95,38 @@ enum Found {
 }
 
 fn found(job: &Job, out: &Path) -> Found {
-    let Some((status, spec)) = folder::recorded(&out.join(&job.folder)) else {
+    let dir = out.join(&job.folder);
+    let Some((status, spec)) = folder::recorded(&dir) else {
         return Found::ToRun;
     };
     let same = job.work.spec_json() == spec;
     match status.as_str() {
+        "complete" if same && model_changed(job, &dir) => {
+            eprintln!(
+                "{}: its model file changed since it ran; running it again",
+                job.folder.display()
+            );
+            Found::ToRun
+        }
         "complete" if same => Found::Done,
         "failed" if same => Found::Failed,
         _ => Found::ToRun,
+    }
+}
+
+/// Whether a complete season's `summary.json` names another model text than its model
+/// file holds now (the spec names the file, not what is in it).
+fn model_changed(job: &Job, dir: &Path) -> bool {
+    let Some(spec) = job.work.season() else {
+        return false;
+    };
+    let recorded = std::fs::read_to_string(dir.join("summary.json"))
+        .ok()
+        .and_then(|text| serde_json::from_str::<serde_json::Value>(&text).ok())
+        .and_then(|summary| summary["model_sha256"].as_str().map(str::to_string));
+    match (recorded, crate::lang::load(&spec.model)) {
+        (Some(recorded), Ok(model)) => recorded != sources_hash(&model),
+        _ => false,
     }
 }
 
