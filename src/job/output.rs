@@ -44,6 +44,14 @@ pub fn model_hash(plant: &Plant) -> String {
     sources_hash(&plant.model)
 }
 
+/// [`sources_hash`] of the model file at `path` as it is now; `None` where it does not
+/// load (its run will say why).
+pub fn model_file_hash(path: &Path) -> Option<String> {
+    crate::lang::load(path)
+        .ok()
+        .map(|model| sources_hash(&model))
+}
+
 /// The SHA-256 of a model's source files (the file and those it imports), in hex.
 pub fn sources_hash(model: &crate::lang::model::Model) -> String {
     let mut h = Sha256::new();

@@ -4,7 +4,7 @@
 //! complete job ([`report::write_results`]).
 
 use crate::job::folder;
-use crate::job::output::{io_err, progress_bar, sources_hash};
+use crate::job::output::{io_err, model_file_hash, progress_bar};
 use crate::job::train::run_train_job;
 use crate::job::value::run_value_job;
 use crate::job::{resume_season_job, run_season_job, JobError, JobOptions};
@@ -124,8 +124,8 @@ fn model_changed(job: &Job, dir: &Path) -> bool {
         .ok()
         .and_then(|text| serde_json::from_str::<serde_json::Value>(&text).ok())
         .and_then(|summary| summary["model_sha256"].as_str().map(str::to_string));
-    match (recorded, crate::lang::load(&spec.model)) {
-        (Some(recorded), Ok(model)) => recorded != sources_hash(&model),
+    match (recorded, model_file_hash(&spec.model)) {
+        (Some(recorded), Some(now)) => recorded != now,
         _ => false,
     }
 }
