@@ -91,7 +91,16 @@ pub fn recorded_pid(dir: &Path) -> Option<u32> {
 
 /// `run.json` in `dir`, parsed; `None` without a readable one.
 fn record(dir: &Path) -> Option<serde_json::Value> {
-    let text = std::fs::read_to_string(dir.join("run.json")).ok()?;
+    json_file(&dir.join("run.json"))
+}
+
+/// A season's `summary.json` in `dir`, parsed; `None` without a readable one.
+pub fn summary(dir: &Path) -> Option<serde_json::Value> {
+    json_file(&dir.join("summary.json"))
+}
+
+fn json_file(path: &Path) -> Option<serde_json::Value> {
+    let text = std::fs::read_to_string(path).ok()?;
     serde_json::from_str(&text).ok()
 }
 

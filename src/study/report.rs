@@ -91,10 +91,7 @@ pub fn gather(dirs: &[PathBuf]) -> Result<Vec<JobRow>, StudyError> {
             if !matches!(folder::recorded(&job_dir), Some((s, _)) if s == "complete") {
                 continue;
             }
-            let Some(summary) = std::fs::read_to_string(job_dir.join("summary.json"))
-                .ok()
-                .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
-            else {
+            let Some(summary) = folder::summary(&job_dir) else {
                 continue;
             };
             let m = &summary["metrics"];

@@ -120,9 +120,7 @@ fn model_changed(job: &Job, dir: &Path) -> bool {
     let Some(spec) = job.work.season() else {
         return false;
     };
-    let recorded = std::fs::read_to_string(dir.join("summary.json"))
-        .ok()
-        .and_then(|text| serde_json::from_str::<serde_json::Value>(&text).ok())
+    let recorded = folder::summary(dir)
         .and_then(|summary| summary["model_sha256"].as_str().map(str::to_string));
     match (recorded, model_file_hash(&spec.model)) {
         (Some(recorded), Some(now)) => recorded != now,
