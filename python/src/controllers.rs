@@ -74,7 +74,7 @@ pub fn season<'py>(py: Python<'py>, spec: &str) -> PyResult<SeasonArrays<'py>> {
     for log in &logs {
         data.extend(numeric_fields(log, period_h));
         for (column, text) in texts.iter_mut().zip(text_fields(log)) {
-            column.push(text);
+            column.push(text.to_string());
         }
     }
     let array = numpy::ndarray::Array2::from_shape_vec((logs.len(), names.len()), data)

@@ -208,6 +208,54 @@ impl Tape {
         }
     }
 
+    /// The part of this tape that depends on its first `n` inputs: the same slots,
+    /// constants and outputs, only the instructions that read those inputs directly or
+    /// through others. Where a workspace holds a whole evaluation of this tape, evaluating
+    /// the part on it after only those `n` inputs changed gives the whole tape's values
+    /// (the other slots still hold theirs). An implicit step's Newton iteration moves only
+    /// the state, so the weather's and the controls' share of `f` is evaluated once per
+    /// sub-step instead of once per iteration.
+    ///
+    /// ```
+    /// use ghm::graph::{Graph, Op};
+    ///
+    /// // (x, w) ↦ x · exp(w): exp(w) does not depend on x.
+    /// let mut g = Graph::new();
+    /// let (x, w) = (g.var(0), g.var(1));
+    /// let e = g.apply(Op::Exp, &[w]);
+    /// let f = g.mul(x, e);
+    /// let tape = g.compile(&[f], 2);
+    /// let part = tape.dependents_of_first(1);
+    /// assert_eq!((tape.n_instructions(), part.n_instructions()), (2, 1));
+    ///
+    /// let mut ws = tape.points_workspace::<1>();
+    /// let mut out = [[0.0]];
+    /// tape.eval_points(&mut ws, &[[2.0], [0.5]], &mut out);
+    /// part.eval_points(&mut ws, &[[3.0], [0.5]], &mut out);
+    /// assert_eq!(out, [[3.0 * f64::exp(0.5)]]);
+    /// ```
+    pub fn dependents_of_first(&self, n: usize) -> Tape {
+        let mut depends = vec![false; self.n_slots];
+        depends[..n.min(self.n_inputs)].fill(true);
+        let mut instrs = Vec::new();
+        for ins in &self.instrs {
+            let reads = ins.args[..ins.op.arity()]
+                .iter()
+                .any(|&a| depends[a as usize]);
+            if reads {
+                depends[ins.out as usize] = true;
+                instrs.push(*ins);
+            }
+        }
+        Tape {
+            n_inputs: self.n_inputs,
+            n_slots: self.n_slots,
+            constants: self.constants.clone(),
+            instrs,
+            outputs: self.outputs.clone(),
+        }
+    }
+
     /// Convenience: evaluate on floats with a fresh workspace (allocates; not for hot loops).
     pub fn eval_f64(&self, inputs: &[f64]) -> Vec<f64> {
         let mut ws = self.workspace::<f64>();

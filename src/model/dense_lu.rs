@@ -1,7 +1,9 @@
-//! LU factors of a small dense matrix, real or complex, kept row by row for the triangular
-//! solves that an implicit step's Newton iteration repeats: each row's dot product runs
-//! over contiguous memory, with no allocation. (nalgebra's generic LU
-//! solves, column by column, took a fifth of a GreenLight season's time.)
+//! LU factors of a small dense matrix, real or complex, kept column by column for the
+//! triangular solves that an implicit step's Newton iteration repeats: each known unknown
+//! is taken from the rest in one loop over a contiguous column, with no dependence from one
+//! entry to the next and no allocation. (nalgebra's generic LU solves took a fifth of a
+//! GreenLight season's time; a dot product per row, a chain of additions, 4 % more than
+//! these columns: `docs/benchmarks.md`.)
 
 use nalgebra::Complex;
 use std::ops::{Add, Div, Mul, Sub};
@@ -33,12 +35,12 @@ impl Scalar for Complex<f64> {
 }
 
 /// `P M = L U` of an `n × n` matrix by Gaussian elimination with partial pivoting: `L`
-/// (unit diagonal) below the diagonal of `factors`, `U` on and above it, row-major, and the
-/// reciprocals of `U`'s diagonal apart.
+/// (unit diagonal) below the diagonal of `columns`, `U` on and above it, column by column,
+/// and the reciprocals of `U`'s diagonal apart.
 #[derive(Debug, Clone)]
 pub(crate) struct DenseLu<T> {
     n: usize,
-    factors: Vec<T>,
+    columns: Vec<T>,
     inverse_diagonal: Vec<T>,
     /// Row `i` of `P M` is row `rows[i]` of `M`.
     rows: Vec<usize>,
@@ -75,9 +77,10 @@ impl<T: Scalar> DenseLu<T> {
                 }
             }
         }
+        let columns = (0..n * n).map(|k| m[(k % n) * n + k / n]).collect();
         Some(DenseLu {
             n,
-            factors: m,
+            columns,
             inverse_diagonal,
             rows,
         })
@@ -89,21 +92,20 @@ impl<T: Scalar> DenseLu<T> {
         for (s, &r) in scratch.iter_mut().zip(&self.rows) {
             *s = rhs[r];
         }
-        for i in 1..n {
-            let row = &self.factors[i * n..i * n + i];
-            let dot = row
-                .iter()
-                .zip(&scratch[..i])
-                .fold(T::ZERO, |sum, (&l, &x)| sum + l * x);
-            scratch[i] = scratch[i] - dot;
+        for k in 0..n {
+            let x = scratch[k];
+            let column = &self.columns[k * n + k + 1..k * n + n];
+            for (s, &l) in scratch[k + 1..n].iter_mut().zip(column) {
+                *s = *s - l * x;
+            }
         }
-        for i in (0..n).rev() {
-            let row = &self.factors[i * n + i + 1..i * n + n];
-            let dot = row
-                .iter()
-                .zip(&scratch[i + 1..])
-                .fold(T::ZERO, |sum, (&u, &x)| sum + u * x);
-            scratch[i] = (scratch[i] - dot) * self.inverse_diagonal[i];
+        for k in (0..n).rev() {
+            let x = scratch[k] * self.inverse_diagonal[k];
+            scratch[k] = x;
+            let column = &self.columns[k * n..k * n + k];
+            for (s, &u) in scratch[..k].iter_mut().zip(column) {
+                *s = *s - u * x;
+            }
         }
         rhs.copy_from_slice(&scratch[..n]);
     }

@@ -267,6 +267,9 @@ pub(crate) struct ImplicitStep {
     n_w: usize,
     /// `f(x, u, d, p)` over the base variables.
     rhs: Tape,
+    /// The instructions of `rhs` that read the state: all a Newton iteration after the
+    /// sub-step's first needs to evaluate, as only the stage values move.
+    rhs_state_part: Tape,
     /// `P(z, W)` over `(x, u, d, p, x⁺ slots, W)`.
     post: Tape,
     /// `[P; G](z, W)`, for derivatives.
@@ -280,6 +283,10 @@ pub(crate) struct ImplicitWorkspace {
     stage_ws: PointsWorkspace<STAGE_POINTS>,
     stage_inputs: Vec<[f64; STAGE_POINTS]>,
     stage_slopes: Vec<[f64; STAGE_POINTS]>,
+    /// Whether `stage_ws` holds a whole evaluation of `f` at this sub-step's stage inputs
+    /// other than the state, so that [`ImplicitStep::stage_slopes`] need run only the part
+    /// that reads the state.
+    stage_base_evaluated: bool,
     rhs_jacobian: Derivatives,
     rhs_inputs: Vec<f64>,
     slopes: Vec<f64>,
@@ -336,11 +343,13 @@ impl ImplicitStep {
         let n_in = w_offset + n_w;
         let mut all = step_outputs.to_vec();
         all.extend_from_slice(residuals);
+        let rhs = graph.compile(&model.derivatives, layout.n_base());
         ImplicitStep {
             substeps: model.substeps,
             h: model.sample_period / model.substeps as f64,
             clock: model.clock().map(|i| layout.d(i)),
-            rhs: graph.compile(&model.derivatives, layout.n_base()),
+            rhs_state_part: rhs.dependents_of_first(layout.nx),
+            rhs,
             post: graph.compile(step_outputs, n_in),
             combined: graph.compile(&all, n_in),
             extrapolation: extrapolation(&tableau),
@@ -378,6 +387,7 @@ impl ImplicitStep {
             stage_ws: self.rhs.points_workspace(),
             stage_inputs: vec![[0.0; STAGE_POINTS]; self.layout.n_base()],
             stage_slopes: vec![[0.0; STAGE_POINTS]; nx],
+            stage_base_evaluated: false,
             rhs_jacobian: Derivatives::new(&self.rhs, &(0..nx).collect::<Vec<_>>()),
             rhs_inputs: vec![0.0; self.layout.n_base()],
             slopes: vec![0.0; sn],
@@ -591,6 +601,7 @@ impl ImplicitStep {
         for (input, &b) in ws.stage_inputs[nx..].iter_mut().zip(&base[nx..]) {
             *input = [b; STAGE_POINTS];
         }
+        ws.stage_base_evaluated = false;
     }
 
     /// `f` at every stage's value `start + increments` and time into `ws.slopes`, up to
@@ -613,8 +624,15 @@ impl ImplicitStep {
                 ws.stage_inputs[c] =
                     std::array::from_fn(|point| clock + t0 + self.tableau.c[stage_of(point)] * h);
             }
-            self.rhs
-                .eval_points(&mut ws.stage_ws, &ws.stage_inputs, &mut ws.stage_slopes);
+            // With more stages than points, the passes differ in their times: each
+            // evaluates `f` whole.
+            let tape = if ws.stage_base_evaluated {
+                &self.rhs_state_part
+            } else {
+                &self.rhs
+            };
+            tape.eval_points(&mut ws.stage_ws, &ws.stage_inputs, &mut ws.stage_slopes);
+            ws.stage_base_evaluated = s <= STAGE_POINTS;
             for point in 0..count {
                 for (k, slope) in ws.stage_slopes.iter().enumerate() {
                     ws.slopes[(first + point) * nx + k] = slope[point];
