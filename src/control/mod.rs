@@ -7,6 +7,7 @@ pub mod expert;
 pub mod mpc;
 pub mod policy;
 pub mod rlmpc;
+mod roll_out;
 pub mod rules;
 pub mod stepper;
 pub mod value;

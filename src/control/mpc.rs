@@ -31,6 +31,7 @@
 //! and writes the starting point; its own input is one more fallback, before the held
 //! input.
 
+use super::roll_out::RollOut;
 use super::Rules;
 use super::{
     ControlError, Controller, Decision, Fallback, Observation, Plan, StepRecord, WarmStart,
@@ -83,9 +84,9 @@ pub struct Mpc {
     /// Iteration cap of a primal-dual warm solve before the cold start takes over.
     pub warm_iteration_limit: Option<usize>,
     guidance: Option<Box<dyn Guidance>>,
-    /// The model's own rules, where every input has one: a cold start tries their
-    /// roll-out first.
-    rules: Option<Rules>,
+    /// The model's own rules, where every input has one, and the nominal model they are
+    /// rolled out on: a cold start tries their roll-out first.
+    rules: Option<(Rules, RollOut)>,
 }
 
 impl Mpc {
@@ -96,7 +97,9 @@ impl Mpc {
         horizon: usize,
         solver: Box<dyn Solver>,
     ) -> Result<Mpc, OcpError> {
-        let rules = Rules::new(Arc::clone(&plant)).ok();
+        let rules = Rules::new(Arc::clone(&plant))
+            .ok()
+            .map(|rules| (rules, RollOut::new(Arc::clone(&plant))));
         let ocp = Ocp::new(plant, horizon)?;
         let (n, m) = (ocp.n_vars(), ocp.n_cons());
         Ok(Mpc {
@@ -310,32 +313,17 @@ impl Mpc {
     /// Writes into the starting point the roll-out of the model's rules from the measured
     /// state over the forecast; false (nothing written) where some input has no rule.
     fn rules_roll_out(&mut self, observation: &Observation) -> Result<bool, ControlError> {
-        let Some(rules) = self.rules.as_mut() else {
+        let Some((rules, roll_out)) = self.rules.as_mut() else {
             return Ok(false);
         };
-        let plant = Arc::clone(self.ocp.plant());
-        let (horizon, nd) = (self.ocp.horizon(), plant.layout.nd);
-        let params = plant.model.nominal_params();
-        let mut state = observation.state.to_vec();
-        let mut previous = observation.previous_input.to_vec();
-        let mut inputs = Vec::with_capacity(horizon * previous.len());
-        for j in 0..horizon {
-            let weather = &self.forecast[j * nd..];
-            let input = rules
-                .decide(&Observation {
-                    step: observation.step + j,
-                    state: &state,
-                    outputs: &[],
-                    previous_input: &previous,
-                    forecast: weather,
-                })?
-                .input;
-            state = plant
-                .step(&state, &input, &weather[..nd], &params)
-                .next_state;
-            inputs.extend_from_slice(&input);
-            previous = input;
-        }
+        let mut inputs = Vec::with_capacity(self.ocp.horizon() * observation.previous_input.len());
+        roll_out.horizon(
+            rules,
+            observation,
+            &self.forecast,
+            self.ocp.horizon(),
+            &mut inputs,
+        )?;
         self.ocp.rollout(&inputs, &mut self.start_x);
         Ok(true)
     }

@@ -19,9 +19,10 @@
 //! eigenvalue clipping per block: see [`Sqp`](crate::solve::Sqp)); IPOPT applies
 //! its own inertia correction.
 
+use crate::control::roll_out::RollOut;
 use crate::control::value::{taylor_terminal_cost, ValueTerminalCost};
 use crate::control::{ControlError, Controller, Guidance, Observation, ValueFile};
-use crate::model::{Plant, StepOutcome, StepWorkspace};
+use crate::model::Plant;
 use crate::nlp::{Ocp, TerminalBox};
 use std::sync::Arc;
 
@@ -61,10 +62,7 @@ pub struct RlGuidance {
     value: Option<ValueFile>,
     options: RlMpcOptions,
     exact_cost_set: bool,
-    params: Vec<f64>,
-    ws: StepWorkspace,
-    out: StepOutcome,
-    outputs: Vec<f64>,
+    roll_out: RollOut,
     inputs: Vec<f64>,
     region: Option<TerminalBox>,
 }
@@ -94,16 +92,8 @@ impl RlGuidance {
                 )));
             }
         }
-        let nx = plant.layout.nx;
         Ok(RlGuidance {
-            params: plant.model.nominal_params(),
-            ws: plant.workspace(),
-            out: StepOutcome {
-                next_state: Vec::with_capacity(nx),
-                terms: Vec::new(),
-                next_outputs: Vec::new(),
-            },
-            outputs: vec![0.0; plant.model.outputs.len()],
+            roll_out: RollOut::new(Arc::clone(&plant)),
             inputs: Vec::new(),
             region: None,
             guide_name: guide_name.to_string(),
@@ -113,44 +103,6 @@ impl RlGuidance {
             exact_cost_set: false,
             plant,
         })
-    }
-
-    /// The guide's input at state `x` after input `previous`, at season step `step`, with
-    /// the forecast from that step on.
-    fn guide_step(
-        &mut self,
-        x: &[f64],
-        previous: &[f64],
-        step: usize,
-        forecast: &[f64],
-    ) -> Result<Vec<f64>, ControlError> {
-        let nd = self.plant.layout.nd;
-        let d = &forecast[..nd.min(forecast.len())];
-        self.plant.outputs_into(
-            &mut self.ws,
-            x,
-            previous,
-            d,
-            &self.params,
-            &mut self.outputs,
-        );
-        let decision = self.guide.decide(&Observation {
-            step,
-            state: x,
-            outputs: &self.outputs,
-            previous_input: previous,
-            forecast,
-        })?;
-        let mut u = decision.input;
-        self.plant.apply_limits(previous, &mut u);
-        Ok(u)
-    }
-
-    /// The nominal successor of `x` under `u` with weather `d`.
-    fn simulate(&mut self, x: &[f64], u: &[f64], d: &[f64]) -> Vec<f64> {
-        self.plant
-            .step_into(&mut self.ws, x, u, d, &self.params, &mut self.out);
-        self.out.next_state.clone()
     }
 }
 
@@ -215,22 +167,24 @@ impl Guidance for RlGuidance {
                 }
                 let x_end = ocp.state_at(prev, n).to_vec();
                 let u_end = ocp.input(prev, n - 1).to_vec();
-                let u = self.guide_step(&x_end, &u_end, k + n - 1, row(n - 1))?;
-                let terminal = self.simulate(&x_end, &u, &row(n - 1)[..nd]);
+                let u = self.roll_out.input(
+                    self.guide.as_mut(),
+                    &x_end,
+                    &u_end,
+                    k + n - 1,
+                    row(n - 1),
+                )?;
+                let terminal = self.roll_out.successor(&x_end, &u, &row(n - 1)[..nd]);
                 self.inputs.extend_from_slice(&u);
                 terminal
             }
-            None => {
-                let mut x = observation.state.to_vec();
-                let mut u_prev = observation.previous_input.to_vec();
-                for j in 0..n {
-                    let u = self.guide_step(&x, &u_prev, k + j, row(j))?;
-                    x = self.simulate(&x, &u, &row(j)[..nd]);
-                    self.inputs.extend_from_slice(&u);
-                    u_prev = u;
-                }
-                x
-            }
+            None => self.roll_out.horizon(
+                self.guide.as_mut(),
+                observation,
+                forecast,
+                n,
+                &mut self.inputs,
+            )?,
         };
         let inputs = std::mem::take(&mut self.inputs);
         ocp.rollout(&inputs, start);
@@ -261,13 +215,15 @@ impl Guidance for RlGuidance {
     }
 
     fn guide_input(&mut self, observation: &Observation) -> Option<Vec<f64>> {
-        self.guide_step(
-            observation.state,
-            observation.previous_input,
-            observation.step,
-            observation.forecast,
-        )
-        .ok()
+        self.roll_out
+            .input(
+                self.guide.as_mut(),
+                observation.state,
+                observation.previous_input,
+                observation.step,
+                observation.forecast,
+            )
+            .ok()
     }
 
     fn region_status(&self, ocp: &Ocp, x: &[f64]) -> Option<String> {
