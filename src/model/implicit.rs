@@ -18,7 +18,8 @@
 //!   ([`super::eigen_split`]). The last sub-step's factored matrix is tried first (across
 //!   steps too, in a simulation's workspace: RADAU5's rule), from the last sub-step's
 //!   collocation polynomial continued; where it contracts slowly, `J` is taken afresh at
-//!   the start, and at every stage where that slows too; a step that still fails is
+//!   the start, and at every stage where that barely contracts (in a simulation) or slows
+//!   (for derivatives), anew each time; a step that still fails is
 //!   split into up to 64 pieces in a simulation (an optimiser's values stay NaN there, as its
 //!   derivatives would). A sub-step that converged at a rate of contraction above 0.2
 //!   has the next one take `J` afresh at its start, from its extrapolated stages. In a
@@ -78,10 +79,27 @@ impl Purpose {
             Purpose::Derivatives => size <= DERIVATIVES_TOLERANCE,
         }
     }
+
+    /// The rate of contraction above which an iteration with a matrix fresh for this
+    /// sub-step takes the exact Newton matrix (`J` at every stage's latest value,
+    /// `3n × 3n`), anew each time. A simulation goes on with the matrix it has while the
+    /// iteration still contracts: after a large jump of the controls it often contracts
+    /// slowly at first and fast later (GreenLight at a 900 s step under random controls:
+    /// 2.2× faster than at 0.5, the same values to the tolerance; `docs/benchmarks.md`,
+    /// "Fewer exact Newton matrices"). Derivatives, converged to a correction of 1e-10,
+    /// take it at 0.5: a slowly contracting iteration would not get there within
+    /// [`MAX_NEWTON_ITERATIONS`].
+    fn slow_contraction(self) -> f64 {
+        match self {
+            Purpose::Simulation => 0.95,
+            Purpose::Derivatives => SLOW_CONTRACTION,
+        }
+    }
 }
 /// A correction this small that no longer shrinks is round-off: converged as well.
 const ROUND_OFF_FLOOR: f64 = 1e-9;
-/// The contraction above which `J` is evaluated anew at each stage's latest value.
+/// The contraction above which a reused matrix gives up, and, for derivatives, a fresh one
+/// turns to exact Newton ([`Purpose::slow_contraction`]).
 const SLOW_CONTRACTION: f64 = 0.5;
 /// The contraction of a converged sub-step above which the next one, in a simulation,
 /// takes `J` afresh at its start (its stages still extrapolated from this one's).
@@ -526,7 +544,8 @@ impl ImplicitStep {
 
     /// The Newton iteration from `ws.increments` with the factored matrix `lu`; a `reused`
     /// matrix gives up at the first slow contraction, a fresh one is replaced by the exact
-    /// Newton matrix there. Returns the matrix it ended with.
+    /// Newton matrix at every contraction above [`Purpose::slow_contraction`]. Returns the
+    /// matrix it ended with.
     fn newton(
         &self,
         ws: &mut ImplicitWorkspace,
@@ -580,7 +599,12 @@ impl ImplicitStep {
                 ws.stale = theta > REFRESH_CONTRACTION;
                 return Ok(lu);
             }
-            if size > SLOW_CONTRACTION * previous {
+            let slow = if reused {
+                SLOW_CONTRACTION
+            } else {
+                ws.purpose.slow_contraction()
+            };
+            if size > slow * previous {
                 if reused {
                     return Err(NewtonFailure);
                 }
