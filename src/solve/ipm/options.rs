@@ -4,7 +4,10 @@
 /// Tuning of [`Ipm`](super::Ipm).
 #[derive(Debug, Clone, PartialEq)]
 pub struct IpmOptions {
-    /// Iteration limit of a solve.
+    /// Iteration limit of a solve. 500: the GreenLight tomato's MPC study met six steps in
+    /// its first 33 days whose cold starts each ran to the old 200 and failed; with room,
+    /// each converged in 333–362 iterations (32–44 s, within the 300 s control period;
+    /// `docs/benchmarks.md`, "Room for a cold start"). No lettuce solve comes near it.
     pub max_iterations: usize,
     /// KKT residual (IPOPT's scaled optimality error, with `μ = 0`) at which the solve is
     /// optimal.
@@ -76,7 +79,7 @@ pub enum MuStrategy {
 impl Default for IpmOptions {
     fn default() -> Self {
         IpmOptions {
-            max_iterations: 200,
+            max_iterations: 500,
             tolerance: 1e-8,
             acceptable_tolerance: 1e-5,
             acceptable_iterations: 10,
