@@ -73,9 +73,10 @@ impl RollOut {
         self.out.next_state.clone()
     }
 
-    /// `controller` over `steps` steps from the observed state and previous input, the
-    /// forecast `forecast` starting at the observation's step: its inputs appended to
-    /// `inputs`, step after step; returns the state they reach.
+    /// `controller` over `steps` steps from the observation's state, previous input and
+    /// step, with the forecast `forecast` from that step on (the observation's own
+    /// forecast and outputs are not read): its inputs appended to `inputs`, step after
+    /// step; returns the state they reach.
     pub fn horizon(
         &mut self,
         controller: &mut dyn Controller,

@@ -152,7 +152,8 @@ pub struct TrajectoryWriter {
     scratch: String,
 }
 
-/// Steps between updates of the progress bar's message (the day and the reward so far).
+/// Steps between updates of the progress bar's message (the day and the reward so far),
+/// which is also updated at each new day and at the first step written.
 const PROGRESS_MESSAGE_EVERY: usize = 16;
 
 impl TrajectoryWriter {
@@ -210,9 +211,7 @@ impl TrajectoryWriter {
             std::fs::rename(file.path(), &kept).map_err(io_err(&kept))
         }
     }
-}
 
-impl TrajectoryWriter {
     /// Writes one step's row, each field formatted into the one scratch string: a season
     /// of short steps (GreenLight's 111 days, 31 968 rows) spent a sixth of its time
     /// allocating a string per field.
@@ -246,7 +245,10 @@ impl StepSink for TrajectoryWriter {
             self.out.flush().map_err(|e| e.to_string())?;
         }
         self.bar.set_position(log.step as u64 + 1);
-        if log.step % PROGRESS_MESSAGE_EVERY == 0 {
+        if log.step % PROGRESS_MESSAGE_EVERY == 0
+            || log.step % self.steps_per_day == 0
+            || self.logs.is_empty()
+        {
             self.bar.set_message(format!(
                 "{} reward {:+.3}",
                 log.step / self.steps_per_day + 1,

@@ -1,7 +1,7 @@
 //! LU factors of a small dense matrix, real or complex, kept column by column for the
-//! triangular solves that an implicit step's Newton iteration repeats: each known unknown
-//! is taken from the rest in one loop over a contiguous column, with no dependence from one
-//! entry to the next and no allocation. (nalgebra's generic LU solves took a fifth of a
+//! triangular solves that an implicit step's Newton iteration repeats: each solved unknown,
+//! times its column, is subtracted from the rest in one loop over contiguous memory, with
+//! no dependence from one entry to the next and no allocation. (nalgebra's generic LU solves took a fifth of a
 //! GreenLight season's time; a dot product per row, a chain of additions, 4 % more than
 //! these columns: `docs/benchmarks.md`.)
 

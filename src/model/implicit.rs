@@ -30,8 +30,9 @@
 //!   season, `docs/benchmarks.md`, "Fewer Newton iterations, and triangular solves row by
 //!   row": 5.2 iterations a sub-step before, 2.7 now.) A workspace for derivatives
 //!   keeps nothing from one step to the next, so that its numbers do not depend on which
-//!   steps were solved before. Each iteration evaluates `f` at every stage in one pass
-//!   of the tape ([`Tape::eval_points`]).
+//!   steps were solved before. A sub-step's first iteration evaluates `f` at every stage
+//!   in one pass of the tape ([`Tape::eval_points`]); the later ones only the part of it
+//!   that reads the state ([`Tape::dependents_of_first`]).
 //! * **Jacobian**: `W_z = −G_W⁻¹ G_z` and `dP/dz = P_z + P_W W_z`.
 //! * **Hessian of `λᵀP`**: with the adjoint `μ` of `G_Wᵀ μ = −P_Wᵀ λ`, the Lagrangian
 //!   `L = λᵀP + μᵀG` is stationary in `W`, and `∇²(λᵀP) = Tᵀ ∇²L T` with `T = [I; W_z]`.
@@ -80,27 +81,35 @@ impl Purpose {
         }
     }
 
-    /// The rate of contraction above which an iteration with a matrix fresh for this
-    /// sub-step takes the exact Newton matrix (`J` at every stage's latest value,
-    /// `3n × 3n`), anew each time. A simulation goes on with the matrix it has while the
-    /// iteration still contracts: after a large jump of the controls it often contracts
-    /// slowly at first and fast later (GreenLight at a 900 s step under random controls:
-    /// 2.2× faster than at 0.5, the same values to the tolerance; `docs/benchmarks.md`,
-    /// "Fewer exact Newton matrices"). Derivatives, converged to a correction of 1e-10,
-    /// take it at 0.5: a slowly contracting iteration would not get there within
-    /// [`MAX_NEWTON_ITERATIONS`].
-    fn slow_contraction(self) -> f64 {
+    /// Whether an iteration with a matrix fresh for this sub-step, contracting at `theta`
+    /// after a correction of the scaled size `size`, `left` iterations still allowed,
+    /// should take the exact Newton matrix (`J` at every stage's latest value, `sn × sn`),
+    /// anew each time. A simulation goes on with the matrix it has while the iteration
+    /// contracts fast enough to converge within the iterations left: after a large jump
+    /// of the controls it often contracts slowly at first and fast later
+    /// (`docs/benchmarks.md`, "Fewer exact Newton matrices": GreenLight under jumping
+    /// controls about twice as fast as turning at 0.5, the same values to the tolerance).
+    /// Derivatives, converged to a correction of 1e-10, turn at 0.5.
+    fn turn_to_exact(self, theta: f64, size: f64, left: usize) -> bool {
         match self {
-            Purpose::Simulation => 0.95,
-            Purpose::Derivatives => SLOW_CONTRACTION,
+            Purpose::Simulation => {
+                let exponent = i32::try_from(left).unwrap_or(i32::MAX);
+                theta > SIMULATION_SLOW_CONTRACTION
+                    || (theta > SLOW_CONTRACTION
+                        && !self.converged(theta.powi(exponent) * size, contraction_eta(theta)))
+            }
+            Purpose::Derivatives => theta > SLOW_CONTRACTION,
         }
     }
 }
 /// A correction this small that no longer shrinks is round-off: converged as well.
 const ROUND_OFF_FLOOR: f64 = 1e-9;
 /// The contraction above which a reused matrix gives up, and, for derivatives, a fresh one
-/// turns to exact Newton ([`Purpose::slow_contraction`]).
+/// turns to exact Newton ([`Purpose::turn_to_exact`]).
 const SLOW_CONTRACTION: f64 = 0.5;
+/// The contraction above which a simulation's fresh matrix turns to exact Newton
+/// whatever the iterations left ([`Purpose::turn_to_exact`]).
+const SIMULATION_SLOW_CONTRACTION: f64 = 0.95;
 /// The contraction of a converged sub-step above which the next one, in a simulation,
 /// takes `J` afresh at its start (its stages still extrapolated from this one's).
 const REFRESH_CONTRACTION: f64 = 0.2;
@@ -484,8 +493,8 @@ impl ImplicitStep {
     /// Newton on the stage equations of one sub-step of length `h` from `ws.start` at
     /// `t0`. The last sub-step's factored matrix is tried first while it serves (RADAU5's
     /// rule); where it contracts slowly, the iteration starts again with `J` at the start,
-    /// and turns to exact Newton (`J` at every stage) where that slows too. The stage
-    /// increments are left in `ws.increments`.
+    /// and turns to exact Newton (`J` at every stage) where that contracts too slowly
+    /// ([`Purpose::turn_to_exact`]). The stage increments are left in `ws.increments`.
     fn solve_substep(
         &self,
         ws: &mut ImplicitWorkspace,
@@ -544,8 +553,8 @@ impl ImplicitStep {
 
     /// The Newton iteration from `ws.increments` with the factored matrix `lu`; a `reused`
     /// matrix gives up at the first slow contraction, a fresh one is replaced by the exact
-    /// Newton matrix at every contraction above [`Purpose::slow_contraction`]. Returns the
-    /// matrix it ended with.
+    /// Newton matrix wherever [`Purpose::turn_to_exact`] says. Returns the matrix it ended
+    /// with.
     fn newton(
         &self,
         ws: &mut ImplicitWorkspace,
@@ -561,7 +570,7 @@ impl ImplicitStep {
         let mut theta = 0.0;
         let mut eta = first_eta(ws.eta);
         self.set_stage_base(ws, base);
-        for _ in 0..MAX_NEWTON_ITERATIONS {
+        for iteration in 0..MAX_NEWTON_ITERATIONS {
             self.stage_slopes(ws, base, t0, h);
             for i in 0..s {
                 for k in 0..nx {
@@ -599,12 +608,15 @@ impl ImplicitStep {
                 ws.stale = theta > REFRESH_CONTRACTION;
                 return Ok(lu);
             }
+            // 0 at the first iteration, where `previous` is infinite.
+            let contraction = size / previous;
+            let left = MAX_NEWTON_ITERATIONS - iteration - 1;
             let slow = if reused {
-                SLOW_CONTRACTION
+                contraction > SLOW_CONTRACTION
             } else {
-                ws.purpose.slow_contraction()
+                ws.purpose.turn_to_exact(contraction, size, left)
             };
-            if size > slow * previous {
+            if slow {
                 if reused {
                     return Err(NewtonFailure);
                 }
@@ -648,8 +660,8 @@ impl ImplicitStep {
                 ws.stage_inputs[c] =
                     std::array::from_fn(|point| clock + t0 + self.tableau.c[stage_of(point)] * h);
             }
-            // With more stages than points, the passes differ in their times: each
-            // evaluates `f` whole.
+            // With more stages than points (no tableau here has), the passes would differ
+            // in their clock's time: each would evaluate `f` whole.
             let tape = if ws.stage_base_evaluated {
                 &self.rhs_state_part
             } else {

@@ -151,8 +151,9 @@ impl Solver for Ipm {
     /// season, resumed from the same 1650 steps, 1 h, `primal-dual`) a cap of 40 sent 11
     /// of 109 steps to a cold start (3 178 iterations in all), 60 sent 7 (2 725), 80 sent 2
     /// (1 987), 120 sent 1 (2 649): many warm solves there converge between 40 and 80
-    /// iterations, and a cold start takes 50 to 200 (`docs/benchmarks.md`, "Economic MPC
-    /// of the GreenLight tomato, priced on its fruit"). MPC caps a `primal-dual` restart
+    /// iterations, and a cold start takes 50 to 200, some over 300 (`docs/benchmarks.md`,
+    /// "Economic MPC of the GreenLight tomato, priced on its fruit", "Room for a cold
+    /// start"). MPC caps a `primal-dual` restart
     /// and, under guidance, the cold attempt from the guide's fresh roll-out.
     fn warm_iteration_budget(&self) -> usize {
         80

@@ -7,7 +7,7 @@ pub struct IpmOptions {
     /// Iteration limit of a solve. 500: the GreenLight tomato's MPC study met six steps in
     /// its first 33 days whose cold starts each ran to the old 200 and failed; with room,
     /// each converged in 333–362 iterations (32–44 s, within the 300 s control period;
-    /// `docs/benchmarks.md`, "Room for a cold start"). No lettuce solve comes near it.
+    /// `docs/benchmarks.md`, "Room for a cold start"). No lettuce solve comes near 200.
     pub max_iterations: usize,
     /// KKT residual (IPOPT's scaled optimality error, with `μ = 0`) at which the solve is
     /// optimal.
