@@ -2,11 +2,12 @@
 //! their sum, with the exact gradient and Hessian of their graph in the state.
 
 use super::Plant;
-use crate::graph::Derivatives;
+use crate::graph::{Derivatives, Tape};
 
 /// The derivatives of a plant's terminal tape with respect to the state.
 #[derive(Debug, Clone)]
 pub(crate) struct ModelTerminalCost {
+    tape: Tape,
     derivatives: Derivatives,
     inputs: Vec<f64>,
     weights: Vec<f64>,
@@ -18,6 +19,7 @@ impl ModelTerminalCost {
         let tape = plant.terminal_tape()?;
         let nx = plant.layout.nx;
         Some(ModelTerminalCost {
+            tape: tape.clone(),
             derivatives: Derivatives::new(tape, &(0..nx).collect::<Vec<_>>()),
             inputs: vec![0.0; plant.layout.n_base()],
             weights: vec![-1.0; tape.outputs.len()],
@@ -37,12 +39,9 @@ impl ModelTerminalCost {
         let l = plant.layout;
         self.inputs[..l.nx].copy_from_slice(state);
         self.inputs[l.p(0)..l.p(0) + l.np].copy_from_slice(params);
-        let Some(tape) = plant.terminal_tape() else {
-            gradient.fill(0.0);
-            hessian.fill(0.0);
-            return 0.0;
-        };
-        let e = self.derivatives.hessian(tape, &self.inputs, &self.weights);
+        let e = self
+            .derivatives
+            .hessian(&self.tape, &self.inputs, &self.weights);
         gradient.copy_from_slice(&e.gradient);
         hessian.copy_from_slice(&e.hessian);
         -e.values.iter().sum::<f64>()

@@ -94,14 +94,14 @@ enum Found {
     ToRun,
 }
 
-fn found(job: &Job, out: &Path) -> Found {
+fn found(job: &Job, out: &Path, model_hashes: &mut ModelHashes) -> Found {
     let dir = out.join(&job.folder);
     let Some((status, spec)) = folder::recorded(&dir) else {
         return Found::ToRun;
     };
     let same = job.work.spec_json() == spec;
     match status.as_str() {
-        "complete" if same && model_changed(job, &dir) => {
+        "complete" if same && model_changed(job, &dir, model_hashes) => {
             eprintln!(
                 "{}: its model file changed since it ran; running it again",
                 job.folder.display()
@@ -114,16 +114,23 @@ fn found(job: &Job, out: &Path) -> Found {
     }
 }
 
+/// The hash of each model file as it is now ([`model_file_hash`]), loaded once per file
+/// however many seasons name it (a paper study's 1 180 name two).
+type ModelHashes = std::collections::HashMap<std::path::PathBuf, Option<String>>;
+
 /// Whether a complete season's `summary.json` names another model text than its model
 /// file holds now (the spec names the file, not what is in it).
-fn model_changed(job: &Job, dir: &Path) -> bool {
+fn model_changed(job: &Job, dir: &Path, model_hashes: &mut ModelHashes) -> bool {
     let Some(spec) = job.work.season() else {
         return false;
     };
     let recorded = folder::summary(dir)
         .and_then(|summary| summary["model_sha256"].as_str().map(str::to_string));
-    match (recorded, model_file_hash(&spec.model)) {
-        (Some(recorded), Some(now)) => recorded != now,
+    let now = model_hashes
+        .entry(spec.model.clone())
+        .or_insert_with(|| model_file_hash(&spec.model));
+    match (recorded, now) {
+        (Some(recorded), Some(now)) => recorded != *now,
         _ => false,
     }
 }
@@ -152,8 +159,9 @@ pub fn run_study(
         ..StudyOutcome::default()
     };
     let mut pending = Vec::new();
+    let mut model_hashes = ModelHashes::new();
     for job in &jobs {
-        match found(job, out) {
+        match found(job, out, &mut model_hashes) {
             Found::Done => outcome.already_done += 1,
             Found::Failed if !options.retry_failed => outcome.failed.push(job.folder.clone()),
             _ => pending.push(*job),

@@ -153,8 +153,8 @@ impl Solver for Ipm {
     /// (1 987), 120 sent 1 (2 649): many warm solves there converge between 40 and 80
     /// iterations, and a cold start takes 50 to 200, some over 300 (`docs/benchmarks.md`,
     /// "Economic MPC of the GreenLight tomato, priced on its fruit", "Room for a cold
-    /// start"). MPC caps a `primal-dual` restart
-    /// and, under guidance, the cold attempt from the guide's fresh roll-out.
+    /// start"). MPC caps a `primal-dual` restart and, under guidance, the cold attempt
+    /// from the guide's fresh roll-out.
     fn warm_iteration_budget(&self) -> usize {
         80
     }
