@@ -38,17 +38,12 @@ pub fn run(args: &ReportArgs) -> Result<(), CliError> {
     }
     let outcome = write_report(&rows, &args.out)?;
     println!(
-        "{} seasons of {} model{} → {}/report.md, results.csv, {}",
+        "{} seasons of {} model{} → {}/{}",
         outcome.jobs,
         outcome.models.len(),
         if outcome.models.len() == 1 { "" } else { "s" },
         args.out.display(),
-        outcome
-            .models
-            .iter()
-            .map(|m| format!("{m}.csv, {m}-solve-times.csv, {m}.png, {m}.svg"))
-            .collect::<Vec<_>>()
-            .join(", ")
+        outcome.files.join(", ")
     );
     if let Some(document) = &args.into {
         let name = relative_to_document(document, &args.out);

@@ -1,5 +1,6 @@
 //! Season metrics as the paper reports them: EPI, cumulative reward, penalties per band,
-//! hours outside each band, and the controller's solve-time statistics.
+//! hours outside each band, and the controller's solve-time statistics; and where the EPI
+//! comes from: each stage term's total and each input's mean.
 
 use crate::control::StepRecord;
 use crate::model::Plant;
@@ -15,6 +16,26 @@ pub struct BandMetrics {
     /// Hours in which the output after the step lay outside the band: one sample period
     /// per such step.
     pub hours_outside: f64,
+}
+
+/// One stage term's total over a season.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct TermMetrics {
+    /// The term's name in the model.
+    pub name: String,
+    /// Its sum over the season, rewards positive and costs negative, in the model's units
+    /// of money: the EPI is the sum of these.
+    pub total: f64,
+}
+
+/// One input's mean over a season.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct InputMetrics {
+    /// The input's name in the model.
+    pub name: String,
+    /// Its mean over the season's steps, in the input's unit (for an input in `[0, 1]`
+    /// times the season's hours: the hours at full power).
+    pub mean: f64,
 }
 
 /// Solve-time statistics of a controller over a season.
@@ -83,6 +104,10 @@ pub struct SolveStats {
 /// assert!((m.cumulative_reward - (epi - penalty)).abs() < 1e-9);
 /// assert_eq!(m.bands[0].output, "h");
 /// assert!((m.bands[0].hours_outside - 5.0 / 60.0).abs() < 1e-12); // five minutes
+/// assert_eq!((m.terms[0].name.as_str(), m.terms[1].name.as_str()), ("stored", "pumping"));
+/// assert!((m.terms[1].total + 5.0 * 50.0 * 0.01).abs() < 1e-12); // costs are negative
+/// assert!((m.terms.iter().map(|t| t.total).sum::<f64>() - m.epi).abs() < 1e-9);
+/// assert_eq!((m.inputs[0].name.as_str(), m.inputs[0].mean), ("inflow", 0.01));
 /// assert_eq!(m.solve.failed_solves, 0); // no solver here
 /// # Ok(())
 /// # }
@@ -100,6 +125,11 @@ pub struct Metrics {
     pub cumulative_reward: f64,
     /// One entry per soft band, in the model's order.
     pub bands: Vec<BandMetrics>,
+    /// One entry per stage term (the terminal terms, which value a horizon's end, have
+    /// none), in the model's order.
+    pub terms: Vec<TermMetrics>,
+    /// One entry per input, in the model's order.
+    pub inputs: Vec<InputMetrics>,
     /// The controller's solve times and failures.
     pub solve: SolveStats,
 }
@@ -110,6 +140,8 @@ pub struct MetricsBuilder {
     period_h: f64,
     bands: Vec<(usize, f64, f64, String)>,
     band_lo_hi: Vec<(f64, f64)>,
+    terms: Vec<TermMetrics>,
+    input_sums: Vec<InputMetrics>,
     epi: f64,
     steps: usize,
     times_ms: Vec<f64>,
@@ -138,6 +170,22 @@ impl MetricsBuilder {
                 .map(|b| (b.output, 0.0, 0.0, m.outputs[b.output].info.name.clone()))
                 .collect(),
             band_lo_hi: m.soft.iter().map(|b| (b.lower, b.upper)).collect(),
+            terms: plant
+                .stage_term_index
+                .iter()
+                .map(|&i| TermMetrics {
+                    name: m.terms[i].info.name.clone(),
+                    total: 0.0,
+                })
+                .collect(),
+            input_sums: m
+                .inputs
+                .iter()
+                .map(|u| InputMetrics {
+                    name: u.info.name.clone(),
+                    mean: 0.0,
+                })
+                .collect(),
             epi: 0.0,
             steps: 0,
             times_ms: Vec::new(),
@@ -147,16 +195,24 @@ impl MetricsBuilder {
         }
     }
 
-    /// Adds one step: its economic reward, one penalty per soft band, the outputs after
-    /// the step (to count hours outside the bands) and the controller's record.
+    /// Adds one step: its stage terms (their sum is its economic reward), one penalty per
+    /// soft band, the outputs after the step (to count hours outside the bands), the input
+    /// applied and the controller's record.
     pub fn add(
         &mut self,
-        economic: f64,
+        terms: &[f64],
         penalties: &[f64],
         next_outputs: &[f64],
+        input: &[f64],
         record: &StepRecord,
     ) {
-        self.epi += economic;
+        self.epi += terms.iter().sum::<f64>();
+        for (total, value) in self.terms.iter_mut().zip(terms) {
+            total.total += value;
+        }
+        for (sum, value) in self.input_sums.iter_mut().zip(input) {
+            sum.mean += value;
+        }
         self.steps += 1;
         for (i, b) in self.bands.iter_mut().enumerate() {
             b.1 += penalties[i];
@@ -181,6 +237,10 @@ impl MetricsBuilder {
     pub fn finish(mut self) -> Metrics {
         let total_penalty: f64 = self.bands.iter().map(|b| b.1).sum();
         self.times_ms.sort_by(f64::total_cmp);
+        let steps = self.steps.max(1) as f64;
+        for sum in &mut self.input_sums {
+            sum.mean /= steps;
+        }
         Metrics {
             steps: self.steps,
             epi: self.epi,
@@ -195,6 +255,8 @@ impl MetricsBuilder {
                     hours_outside: hours,
                 })
                 .collect(),
+            terms: self.terms,
+            inputs: self.input_sums,
             solve: SolveStats {
                 median_ms: percentile(&self.times_ms, 0.5),
                 p95_ms: percentile(&self.times_ms, 0.95),

@@ -537,7 +537,13 @@ pub fn resume_season(
         not_finite(first_non_finite(&[cumulative], |_| {
             Quantity::CumulativeReward
         }))?;
-        metrics.add(economic, &penalties, &out.next_outputs, &decision.record);
+        metrics.add(
+            &out.terms,
+            &penalties,
+            &out.next_outputs,
+            &u,
+            &decision.record,
+        );
         let log = StepLog {
             step: k,
             state: x.clone(),

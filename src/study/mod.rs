@@ -9,6 +9,7 @@
 //! holds anything else — an interrupted run, a run of another spec — is run afresh. The
 //! results of every complete job are gathered into `results.csv`.
 
+pub mod breakdown;
 pub mod markdown;
 pub mod plan;
 pub mod report;

@@ -10,6 +10,7 @@ use crate::job::output::{io_err, write_atomically};
 use crate::report::atomic;
 use crate::report::plot::{draw_png, draw_svg, Figure, Line, Panel, Spread};
 use crate::report::table::csv_text;
+use crate::study::breakdown::{self, Breakdown};
 use crate::study::markdown::model_section;
 use crate::study::table::{spread, TableLine};
 use crate::study::StudyError;
@@ -60,6 +61,8 @@ pub struct JobRow {
     /// How many of the folders held this season (repeats of one study, for timing): its
     /// solve times are the median over them.
     pub runs: usize,
+    /// Where its EPI comes from (empty for seasons written before the figures existed).
+    pub breakdown: Breakdown,
 }
 
 /// The complete jobs of the study folders `dirs` (each with its `study.json`), in the
@@ -117,6 +120,7 @@ pub fn gather(dirs: &[PathBuf]) -> Result<Vec<JobRow>, StudyError> {
                 folder: text("folder"),
                 plan_index,
                 runs: 1,
+                breakdown: Breakdown::from_metrics(m),
             };
             let key = (
                 row.model.clone(),
@@ -207,6 +211,8 @@ pub struct ReportOutcome {
     pub jobs: usize,
     /// Models reported.
     pub models: Vec<String>,
+    /// The files written, relative to the report's folder, `report.md` first.
+    pub files: Vec<String>,
 }
 
 /// The report of `rows` as markdown, per model in the paper's layout
@@ -232,12 +238,14 @@ pub fn report_markdown(rows: &[JobRow], images: &str) -> String {
     );
     for (model, model_rows) in &models {
         md.push_str(&model_section(model, &table(model_rows), images));
+        md.push_str(&breakdown::markdown_table(model_rows));
     }
     md
 }
 
 /// Writes the report of `rows` into `out`: `results.csv` (every job), per model
-/// `<model>.csv` (its table), `<model>-solve-times.csv` and `<model>.png` and `.svg` (its
+/// `<model>.csv` (its table), `<model>-solve-times.csv`, `<model>-breakdown.csv` (where
+/// each nominal season's EPI comes from, [`breakdown`]) and `<model>.png` and `.svg` (its
 /// figure), and `report.md`.
 pub fn write_report(rows: &[JobRow], out: &Path) -> Result<ReportOutcome, StudyError> {
     std::fs::create_dir_all(out).map_err(io_err(out))?;
@@ -245,11 +253,21 @@ pub fn write_report(rows: &[JobRow], out: &Path) -> Result<ReportOutcome, StudyE
     for r in rows {
         models.entry(r.model.as_str()).or_default().push(r);
     }
+    let mut files = vec!["report.md".to_string(), "results.csv".to_string()];
     for (model, model_rows) in &models {
         let lines = table(model_rows);
         write_model_csv(out, model, &lines)?;
+        files.extend([format!("{model}.csv"), format!("{model}-solve-times.csv")]);
+        if let Some((header, records)) = breakdown::csv_records(model_rows) {
+            let name = format!("{model}-breakdown.csv");
+            let path = out.join(&name);
+            let text = csv_text(header, records).map_err(io_err(&path))?;
+            atomic::write(&path, text).map_err(io_err(&path))?;
+            files.push(name);
+        }
         let unit = model_rows.first().map_or("", |r| r.unit.as_str());
         draw_model(out, model, &lines, unit)?;
+        files.extend([format!("{model}.png"), format!("{model}.svg")]);
     }
     let markdown = format!("# Study report\n{}", report_markdown(rows, ""));
     write_results(out, rows)?;
@@ -258,6 +276,7 @@ pub fn write_report(rows: &[JobRow], out: &Path) -> Result<ReportOutcome, StudyE
     Ok(ReportOutcome {
         jobs: rows.len(),
         models: models.keys().map(|m| m.to_string()).collect(),
+        files,
     })
 }
 
@@ -509,6 +528,7 @@ mod tests {
             folder: String::new(),
             plan_index: 0,
             runs: 1,
+            breakdown: Breakdown::default(),
         }
     }
 
