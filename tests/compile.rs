@@ -226,11 +226,11 @@ fn a_compiled_rlmpc_runs_a_day_in_c_with_ghm_rlmpcs_inputs() {
 /// six steps in C as `ghm mpc` does.
 #[test]
 fn a_compiled_greenlight_mpc_decides_in_c_as_ghm_mpc_does() {
-    let Some(models) = common::greenlight::models_or_skip("the compiled GreenLight MPC") else {
+    let Some(weather) =
+        common::greenlight::weather_or_skip("the compiled GreenLight MPC", "compile-greenlight")
+    else {
         return;
     };
-    let weather =
-        common::greenlight::import(&models, "compile-greenlight", &[]).join("weather.csv");
     c_run_equals_command(Case {
         name: "greenlight-mpc",
         model: "models/greenlight/tomato_economic.ghm",

@@ -547,11 +547,11 @@ fn the_rl_environment_runs_the_imported_model() {
 /// buffer.
 #[test]
 fn the_economic_tomato_model_prices_a_day_of_the_rules() {
-    let Some(models) = common::greenlight::models_or_skip("the economic tomato test") else {
+    let Some(weather) =
+        common::greenlight::weather_or_skip("the economic tomato test", "greenlight-economic")
+    else {
         return;
     };
-    let weather =
-        common::greenlight::import(&models, "greenlight-economic", &[]).join("weather.csv");
     let season = rules_season(
         "models/greenlight/tomato_economic.ghm",
         ghm::job::WeatherSpec {
@@ -617,10 +617,11 @@ fn the_economic_tomato_model_prices_a_day_of_the_rules() {
 /// cannot follow (both failed here before: `invalid_number`, then `max_iterations`).
 #[test]
 fn economic_mpc_solves_the_first_steps_from_greenlights_initial_state() {
-    let Some(models) = common::greenlight::models_or_skip("the economic MPC test") else {
+    let Some(weather) =
+        common::greenlight::weather_or_skip("the economic MPC test", "greenlight-mpc")
+    else {
         return;
     };
-    let weather = common::greenlight::import(&models, "greenlight-mpc", &[]).join("weather.csv");
     let spec = ghm::job::RunSpec {
         model: Path::new(env!("CARGO_MANIFEST_DIR")).join("models/greenlight/tomato_economic.ghm"),
         weather: ghm::job::WeatherSpec {

@@ -49,3 +49,11 @@ pub fn import(models: &std::path::Path, folder: &str, extra: &[&str]) -> PathBuf
     );
     out
 }
+
+/// The Bleiswijk weather of GreenLight's Katzin 2021, imported into a fresh folder
+/// (`folder`), or `None` after saying that `test` skipped for want of GreenLight's files.
+#[cfg(feature = "cli")]
+pub fn weather_or_skip(test: &str, folder: &str) -> Option<PathBuf> {
+    let models = models_or_skip(test)?;
+    Some(import(&models, folder, &[]).join("weather.csv"))
+}
