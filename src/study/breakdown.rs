@@ -1,9 +1,10 @@
 //! Where each nominal season's EPI comes from: one row per controller and horizon, with
 //! each stage term's total, the hours outside each soft band and each input's mean, as the
 //! seasons' `summary.json` records them ([`crate::sim::metrics::Metrics`]). Seasons written
-//! before those figures existed have none and are left out.
+//! before those figures existed have none and are left out. The report
+//! ([`super::report`]) names the seasons; this module reads their figures and lays out
+//! the table.
 
-use super::report::JobRow;
 use crate::job::output::figure;
 
 /// A season's figures by name, in the model's order.
@@ -50,84 +51,83 @@ impl Breakdown {
     }
 }
 
-/// The nominal seasons of one model's `rows` that have a breakdown, in their order.
-fn nominal<'a>(rows: &[&'a JobRow]) -> Vec<&'a JobRow> {
-    rows.iter()
-        .copied()
-        .filter(|r| r.uncertainty == 0.0 && !r.breakdown.is_empty())
-        .collect()
-}
-
-fn season_name(r: &JobRow) -> String {
-    if r.horizon.is_empty() {
-        r.controller.clone()
-    } else {
-        format!("{} {}", r.controller, r.horizon)
-    }
+/// One season's row of the table: its name (controller and horizon), EPI and breakdown.
+#[derive(Debug, Clone)]
+pub struct Season<'a> {
+    /// The controller, and its horizon where it has one (`MPC 1h`).
+    pub name: String,
+    /// Its EPI, the sum of its terms.
+    pub epi: f64,
+    /// Where the EPI comes from.
+    pub breakdown: &'a Breakdown,
 }
 
 /// The column names: each term, the EPI, each band's hours, each input's mean (taken from
-/// the first row: one model's seasons share them).
-fn columns(first: &JobRow) -> Vec<String> {
-    let b = &first.breakdown;
-    let mut names: Vec<String> = b.terms.iter().map(|t| t.0.clone()).collect();
+/// the first season: one model's seasons share them).
+fn columns(first: &Breakdown) -> Vec<String> {
+    let mut names: Vec<String> = first.terms.iter().map(|t| t.0.clone()).collect();
     names.push("EPI".into());
-    names.extend(b.band_hours.iter().map(|t| format!("h outside {}", t.0)));
-    names.extend(b.input_means.iter().map(|t| format!("mean {}", t.0)));
+    names.extend(
+        first
+            .band_hours
+            .iter()
+            .map(|t| format!("h outside {}", t.0)),
+    );
+    names.extend(first.input_means.iter().map(|t| format!("mean {}", t.0)));
     names
 }
 
-fn cells(r: &JobRow, format: impl Fn(f64, usize) -> String) -> Vec<String> {
-    let b = &r.breakdown;
+fn cells(season: &Season, format: impl Fn(f64, usize) -> String) -> Vec<String> {
+    let b = season.breakdown;
     let mut out: Vec<String> = b.terms.iter().map(|t| format(t.1, 0)).collect();
-    out.push(format(r.epi, 0));
+    out.push(format(season.epi, 0));
     out.extend(b.band_hours.iter().map(|t| format(t.1, 1)));
     out.extend(b.input_means.iter().map(|t| format(t.1, 2)));
     out
 }
 
-/// The markdown table of one model's nominal seasons, or nothing where none has a
-/// breakdown.
-pub(super) fn markdown_table(rows: &[&JobRow]) -> String {
-    let seasons = nominal(rows);
+/// The seasons of `seasons` that have a breakdown.
+fn with_breakdown<'a, 'b>(seasons: &'b [Season<'a>]) -> Vec<&'b Season<'a>> {
+    seasons.iter().filter(|s| !s.breakdown.is_empty()).collect()
+}
+
+/// The markdown table of one model's nominal `seasons` (money in `unit`), or nothing
+/// where none has a breakdown.
+pub(super) fn markdown_table(seasons: &[Season], unit: &str) -> String {
+    let seasons = with_breakdown(seasons);
     let Some(first) = seasons.first() else {
         return String::new();
     };
-    let names = columns(first);
+    let names = columns(first.breakdown);
     let mut md = format!(
-        "\nWhere the EPI comes from (nominal plant; terms in {}, rewards positive, costs negative; \
-hours outside each band; each input's mean over the season):\n\n| season | {} |\n|---|{}\n",
-        first.unit,
+        "\nWhere the EPI comes from (nominal plant; terms in {unit}, rewards positive, costs \
+negative; hours outside each band; each input's mean over the season):\n\n| season | {} |\n|---|{}\n",
         names.join(" | "),
         "---|".repeat(names.len())
     );
-    for r in seasons {
-        let values = cells(r, |v, kind| match kind {
+    for season in seasons {
+        let values = cells(season, |v, kind| match kind {
             0 => figure(v, false),
             1 => format!("{v:.1}"),
             _ => format!("{v:.3}"),
         });
-        md.push_str(&format!(
-            "| {} | {} |\n",
-            season_name(r),
-            values.join(" | ")
-        ));
+        md.push_str(&format!("| {} | {} |\n", season.name, values.join(" | ")));
     }
     md
 }
 
 /// The CSV header and records of the same table (full precision), or `None` where no
 /// season has a breakdown.
-pub(super) fn csv_records(rows: &[&JobRow]) -> Option<(Vec<String>, Vec<Vec<String>>)> {
-    let seasons = nominal(rows);
+pub(super) fn csv_records(seasons: &[Season]) -> Option<(Vec<String>, Vec<Vec<String>>)> {
+    let seasons = with_breakdown(seasons);
     let first = seasons.first()?;
     let mut header = vec!["season".to_string()];
-    header.extend(columns(first));
+    header.extend(columns(first.breakdown));
     let records = seasons
         .iter()
-        .map(|r| {
-            let mut record = vec![season_name(r)];
-            record.extend(cells(r, |v, _| format!("{v:e}")));
+        .map(|season| {
+            let mut record = vec![season.name.clone()];
+            record.extend(cells(season, |v, _| format!("{v:e}")));
             record
         })
         .collect();
@@ -156,48 +156,29 @@ mod tests {
         assert_eq!(b.input_means, [("lamp".to_string(), 0.25)]);
     }
 
-    fn season(controller: &str, horizon: &str, uncertainty: f64, fruit: f64) -> JobRow {
-        JobRow {
-            model: "m".into(),
-            controller: controller.into(),
-            horizon: horizon.into(),
-            horizon_h: None,
-            scenario: "nominal".into(),
-            uncertainty,
-            seed: 0,
-            epi: fruit - 1.0,
-            total_penalty: 0.0,
-            cumulative_reward: fruit - 1.0,
-            failed_solves: 0,
-            fallbacks: 0,
-            median_ms: 1.0,
-            p95_ms: 1.0,
-            max_ms: 1.0,
-            mean_iterations: 1.0,
-            unit: "€".into(),
-            folder: String::new(),
-            plan_index: 0,
-            runs: 1,
-            breakdown: Breakdown {
-                terms: vec![("fruit".into(), fruit), ("heat".into(), -1.0)],
-                band_hours: vec![("t".into(), 2.5)],
-                input_means: vec![("lamp".into(), 0.125)],
-            },
+    fn breakdown(fruit: f64) -> Breakdown {
+        Breakdown {
+            terms: vec![("fruit".into(), fruit), ("heat".into(), -1.0)],
+            band_hours: vec![("t".into(), 2.5)],
+            input_means: vec![("lamp".into(), 0.125)],
         }
     }
 
     #[test]
-    fn the_table_has_a_row_per_nominal_season_and_its_terms_sum_to_the_epi() {
-        let mut old = season("Old", "", 0.0, 9.0);
-        old.breakdown = Breakdown::default();
-        let rows = [
-            season("Rules", "", 0.0, 3.0),
-            season("MPC", "1h", 0.0, 4.0),
-            season("MPC", "1h", 0.1, 5.0),
-            old,
+    fn the_table_has_a_row_per_season_with_figures_and_its_terms_sum_to_the_epi() {
+        let (rules, mpc, none) = (breakdown(3.0), breakdown(4.0), Breakdown::default());
+        let season = |name: &str, epi: f64, breakdown| Season {
+            name: name.into(),
+            epi,
+            breakdown,
+        };
+        let seasons = [
+            season("Rules", 2.0, &rules),
+            season("MPC 1h", 3.0, &mpc),
+            season("Old", 8.0, &none),
         ];
-        let refs: Vec<&JobRow> = rows.iter().collect();
-        let md = markdown_table(&refs);
+        let md = markdown_table(&seasons, "€");
+        assert!(md.contains("terms in €"), "{md}");
         assert!(
             md.contains("| season | fruit | heat | EPI | h outside t | mean lamp |"),
             "{md}"
@@ -215,11 +196,11 @@ mod tests {
             3,
             "header and two seasons: {md}"
         );
-        let (header, records) = csv_records(&refs).unwrap();
+        let (header, records) = csv_records(&seasons).unwrap();
         assert_eq!(header[0], "season");
         assert_eq!(records.len(), 2);
         assert_eq!(records[1][..4], ["MPC 1h", "4e0", "-1e0", "3e0"]);
-        assert!(markdown_table(&refs[3..]).is_empty());
-        assert!(csv_records(&refs[3..]).is_none());
+        assert!(markdown_table(&seasons[2..], "€").is_empty());
+        assert!(csv_records(&seasons[2..]).is_none());
     }
 }

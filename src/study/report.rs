@@ -10,7 +10,7 @@ use crate::job::output::{io_err, write_atomically};
 use crate::report::atomic;
 use crate::report::plot::{draw_png, draw_svg, Figure, Line, Panel, Spread};
 use crate::report::table::csv_text;
-use crate::study::breakdown::{self, Breakdown};
+use crate::study::breakdown::{self, Breakdown, Season};
 use crate::study::markdown::model_section;
 use crate::study::table::{spread, TableLine};
 use crate::study::StudyError;
@@ -204,6 +204,22 @@ fn table(rows: &[&JobRow]) -> Vec<TableLine> {
     lines
 }
 
+/// The nominal seasons of one model's `rows`, named for the breakdown table.
+fn nominal_seasons<'a>(rows: &[&'a JobRow]) -> Vec<Season<'a>> {
+    rows.iter()
+        .filter(|r| r.uncertainty == 0.0)
+        .map(|r| Season {
+            name: if r.horizon.is_empty() {
+                r.controller.clone()
+            } else {
+                format!("{} {}", r.controller, r.horizon)
+            },
+            epi: r.epi,
+            breakdown: &r.breakdown,
+        })
+        .collect()
+}
+
 /// What `ghm report` wrote.
 #[derive(Debug, Clone, Default)]
 pub struct ReportOutcome {
@@ -238,7 +254,11 @@ pub fn report_markdown(rows: &[JobRow], images: &str) -> String {
     );
     for (model, model_rows) in &models {
         md.push_str(&model_section(model, &table(model_rows), images));
-        md.push_str(&breakdown::markdown_table(model_rows));
+        let unit = model_rows.first().map_or("", |r| r.unit.as_str());
+        md.push_str(&breakdown::markdown_table(
+            &nominal_seasons(model_rows),
+            unit,
+        ));
     }
     md
 }
@@ -258,7 +278,7 @@ pub fn write_report(rows: &[JobRow], out: &Path) -> Result<ReportOutcome, StudyE
         let lines = table(model_rows);
         write_model_csv(out, model, &lines)?;
         files.extend([format!("{model}.csv"), format!("{model}-solve-times.csv")]);
-        if let Some((header, records)) = breakdown::csv_records(model_rows) {
+        if let Some((header, records)) = breakdown::csv_records(&nominal_seasons(model_rows)) {
             let name = format!("{model}-breakdown.csv");
             let path = out.join(&name);
             let text = csv_text(header, records).map_err(io_err(&path))?;
