@@ -153,5 +153,59 @@ fn optimum_command_reports_the_optimum_sqp_finds() {
         reward >= closed_loop,
         "{reward} below the closed loop's {closed_loop}"
     );
+
+    // Started from a season's inputs (here the optimum's own `trajectory.csv`, whose
+    // columns are `u_<input>`) instead of a closed loop: the same optimum, no closed loop.
+    let again = dir.join("again");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_ghm"))
+        .args(["optimum", "models/lettuce.ghm", "--days", "1"])
+        .args(["--solver", "ipm", "--init-inputs"])
+        .arg(dir.join("trajectory.csv"))
+        .arg("--out")
+        .arg(&again)
+        .output()
+        .expect("run ghm");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains("initialising from the inputs in"),
+        "{stdout}"
+    );
+    let text = std::fs::read_to_string(again.join("summary.json")).expect("summary.json");
+    let restarted: serde_json::Value = serde_json::from_str(&text).expect("JSON");
+    assert_eq!(restarted["optimum"]["status"], "optimal");
+    assert!(restarted["optimum"]["initial_cumulative_reward"].is_null());
+    let reward_again = restarted["metrics"]["cumulative_reward"]
+        .as_f64()
+        .expect("a number");
+    assert!(
+        (reward_again - best).abs() <= 2e-5 * best.abs(),
+        "from the optimum's own inputs {reward_again} vs SQP {best}"
+    );
+
+    // Fewer rows than the season's steps: refused with a message.
+    let short = dir.join("short.csv");
+    let rows: Vec<&str> = csv.lines().take(STEPS / 2).collect();
+    std::fs::write(&short, rows.join("\n")).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_ghm"))
+        .args([
+            "optimum",
+            "models/lettuce.ghm",
+            "--days",
+            "1",
+            "--init-inputs",
+        ])
+        .arg(&short)
+        .arg("--out")
+        .arg(dir.join("short"))
+        .output()
+        .expect("run ghm");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        stderr.contains("rows of inputs; the season has 48 steps") && !stderr.contains("panicked"),
+        "{stderr}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }

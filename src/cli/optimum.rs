@@ -17,6 +17,11 @@ pub struct OptimumArgs {
     /// Horizon of the closed-loop MPC run that initialises the optimum.
     #[arg(long, value_name = "H", default_value_t = OptimumSpec::default().init_horizon)]
     pub init_horizon: String,
+    /// Start from the inputs in this CSV instead of a closed loop of MPC: a row per step,
+    /// columns named as the model's inputs or `u_<input>` (a season's `trajectory.csv`,
+    /// e.g. a study's MPC season over the same weather).
+    #[arg(long, value_name = "CSV")]
+    pub init_inputs: Option<PathBuf>,
     /// NLP back-end for the season NLP (default: ipopt where built with it; otherwise the
     /// pure-Rust interior point, which factorises the 1920 stages by a Riccati recursion).
     #[arg(long, value_parser = choice::<SolverChoice>())]
@@ -41,6 +46,7 @@ pub fn run(args: &OptimumArgs) -> Result<(), CliError> {
         plant: PlantSpec::NOMINAL,
         controller: ControllerSpec::Optimum(OptimumSpec {
             init_horizon: args.init_horizon.clone(),
+            init_inputs: args.init_inputs.clone(),
             solver: args.solver,
             max_iterations: args.max_iterations,
         }),

@@ -378,19 +378,33 @@ pub fn parse_inputs(spec: Option<&str>, plant: &Plant) -> Result<Box<dyn Control
         }
         return Ok(Box::new(ConstantInput(values)));
     }
-    let path = Path::new(spec);
+    Ok(Box::new(input_table(Path::new(spec), plant)?))
+}
+
+/// The inputs of a CSV file, one row per step: its columns named as the model's inputs,
+/// or `u_<input>` as a season's `trajectory.csv` names them (so a season's inputs can be
+/// played again, or start the season optimum).
+pub fn input_table(path: &Path, plant: &Plant) -> Result<InputTable, JobError> {
     let names: Vec<String> = plant
         .model
         .inputs
         .iter()
         .map(|u| u.info.name.clone())
         .collect();
-    let frame = crate::sim::weather::load_csv(path, &names, plant.model.sample_period)?;
+    let period = plant.model.sample_period;
+    let (frame, columns) = match crate::sim::weather::load_csv(path, &names, period) {
+        Ok(frame) => (frame, names),
+        Err(plain) => {
+            let logged: Vec<String> = names.iter().map(|n| format!("u_{n}")).collect();
+            match crate::sim::weather::load_csv(path, &logged, period) {
+                Ok(frame) => (frame, logged),
+                Err(_) => return Err(plain.into()),
+            }
+        }
+    };
     let rows = frame.rows();
-    let w = frame.select(&names, 0, rows)?;
-    Ok(Box::new(InputTable(
-        (0..rows).map(|k| w.at(k).to_vec()).collect(),
-    )))
+    let w = frame.select(&columns, 0, rows)?;
+    Ok(InputTable((0..rows).map(|k| w.at(k).to_vec()).collect()))
 }
 
 /// Loads and checks a model, printing its warnings; errors become [`JobError::Model`].

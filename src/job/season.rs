@@ -7,7 +7,8 @@ use crate::control::{
     Controller, Expert, InputTable, Mpc, Policy, RlGuidance, RlMpcOptions, Rules,
 };
 use crate::job::build::{
-    bands_name, guide_factory, load_model, make_mpc, parse_horizon, parse_inputs, ControllerFiles,
+    bands_name, guide_factory, input_table, load_model, make_mpc, parse_horizon, parse_inputs,
+    ControllerFiles,
 };
 use crate::job::folder::{self, RunFolder};
 use crate::job::output::{figure, model_hash, plot_trajectory, write_summary, TrajectoryWriter};
@@ -450,26 +451,27 @@ fn solve_optimum(
         plant.model.sample_period,
     )?;
     let weather = spec.weather.load(&plant.model, steps, horizon)?;
-    say(format!(
-        "initialising from a closed loop of MPC over {}",
-        optimum.init_horizon
-    ));
-    let initialiser = SolverSpec::new(SolverChoice::Sqp).build()?;
-    let mut mpc =
-        Mpc::new(plant.clone(), horizon, initialiser).map_err(|e| JobError::Spec(e.to_string()))?;
-    let mut inputs = Vec::with_capacity(steps * plant.layout.nu);
-    let mut collect = |log: &StepLog| inputs.extend_from_slice(&log.input);
-    let config = SeasonConfig {
-        steps,
-        enforce_limits: true,
-        uncertainty: None,
+    let (inputs, initial_reward) = match &optimum.init_inputs {
+        Some(path) => {
+            say(format!(
+                "initialising from the inputs in {}",
+                path.display()
+            ));
+            (given_inputs(path, plant, steps)?, None)
+        }
+        None => {
+            say(format!(
+                "initialising from a closed loop of MPC over {}",
+                optimum.init_horizon
+            ));
+            let (inputs, reward) = closed_loop_inputs(plant, &weather, horizon, steps)?;
+            say(format!(
+                "  closed loop: cumulative reward {reward:+.4} {}",
+                plant.model.objective_unit()
+            ));
+            (inputs, Some(reward))
+        }
     };
-    let initial = run_season(plant, &weather, &mut mpc, &config, &mut collect)?;
-    say(format!(
-        "  closed loop: cumulative reward {:+.4} {}",
-        initial.metrics.cumulative_reward,
-        plant.model.objective_unit()
-    ));
 
     say(format!("solving the season as one NLP ({steps} stages)"));
     let mut solver = optimum.solver_spec(options.verbose).build()?;
@@ -498,10 +500,50 @@ fn solve_optimum(
             "time_s": seconds,
             "kkt": s.stats.kkt,
             "initial_horizon_steps": horizon,
-            "initial_cumulative_reward": initial.metrics.cumulative_reward,
+            "initial_cumulative_reward": initial_reward,
+            "initial_inputs": optimum.init_inputs,
         }
     });
     Ok((InputTable(result.inputs.clone()), extra))
+}
+
+/// The inputs of a closed loop of MPC at `horizon` steps (SQP) over the season, and its
+/// cumulative reward: the season optimum's default start.
+fn closed_loop_inputs(
+    plant: &Arc<Plant>,
+    weather: &Weather,
+    horizon: usize,
+    steps: usize,
+) -> Result<(Vec<f64>, f64), JobError> {
+    let initialiser = SolverSpec::new(SolverChoice::Sqp).build()?;
+    let mut mpc =
+        Mpc::new(plant.clone(), horizon, initialiser).map_err(|e| JobError::Spec(e.to_string()))?;
+    let mut inputs = Vec::with_capacity(steps * plant.layout.nu);
+    let mut collect = |log: &StepLog| inputs.extend_from_slice(&log.input);
+    let config = SeasonConfig {
+        steps,
+        enforce_limits: true,
+        uncertainty: None,
+    };
+    let initial = run_season(plant, weather, &mut mpc, &config, &mut collect)?;
+    Ok((inputs, initial.metrics.cumulative_reward))
+}
+
+/// The first `steps` rows of the inputs in `path`, row after row: the season optimum's
+/// start when the spec names one.
+fn given_inputs(path: &Path, plant: &Plant, steps: usize) -> Result<Vec<f64>, JobError> {
+    let table = input_table(path, plant)?;
+    if table.0.len() < steps {
+        return Err(JobError::field(
+            "init_inputs",
+            path.display(),
+            format!(
+                "has {} rows of inputs; the season has {steps} steps",
+                table.0.len()
+            ),
+        ));
+    }
+    Ok(table.0[..steps].concat())
 }
 
 /// The season of [`run_season_job`] in its claimed folder.

@@ -310,6 +310,11 @@ impl RlmpcSpec {
 pub struct OptimumSpec {
     /// The horizon of the initialising MPC.
     pub init_horizon: String,
+    /// Inputs to start from instead of a closed loop of MPC: a CSV with a row per step, its
+    /// columns named as the model's inputs or as a season's `trajectory.csv` names them
+    /// (`u_<input>`), e.g. the study's MPC season of the same weather.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub init_inputs: Option<PathBuf>,
     /// The NLP back-end; `None`: IPOPT where built with it, otherwise `ipm`.
     pub solver: Option<SolverChoice>,
     /// The season NLP's iteration limit.
@@ -320,6 +325,7 @@ impl Default for OptimumSpec {
     fn default() -> Self {
         OptimumSpec {
             init_horizon: "1h".into(),
+            init_inputs: None,
             solver: None,
             max_iterations: 500,
         }
