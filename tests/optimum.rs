@@ -31,6 +31,19 @@ fn config() -> SeasonConfig {
     }
 }
 
+/// The `summary.json` of a run folder.
+fn summary_of(dir: &Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(dir.join("summary.json")).expect("summary.json");
+    serde_json::from_str(&text).expect("JSON")
+}
+
+/// A summary's cumulative reward.
+fn reward_of(summary: &serde_json::Value) -> f64 {
+    summary["metrics"]["cumulative_reward"]
+        .as_f64()
+        .expect("a number")
+}
+
 /// Closed-loop MPC: cumulative reward and the inputs it applied.
 fn mpc(plant: &Arc<Plant>, weather: &Weather, horizon: usize) -> (f64, Vec<f64>) {
     let mut mpc = Mpc::new(plant.clone(), horizon, Box::new(Sqp::default())).unwrap();
@@ -99,8 +112,7 @@ fn optimum_command_reports_the_optimum_sqp_finds() {
         .expect("run ghm");
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
-    let text = std::fs::read_to_string(dir.join("summary.json")).expect("summary.json");
-    let summary: serde_json::Value = serde_json::from_str(&text).expect("JSON");
+    let summary = summary_of(&dir);
     let optimum = &summary["optimum"];
     assert_eq!(optimum["solver"], "ipm", "{optimum}");
     assert_eq!(optimum["status"], "optimal", "{optimum}");
@@ -139,9 +151,7 @@ fn optimum_command_reports_the_optimum_sqp_finds() {
     .unwrap()
     .metrics
     .cumulative_reward;
-    let reward = summary["metrics"]["cumulative_reward"]
-        .as_f64()
-        .expect("a number");
+    let reward = reward_of(&summary);
     // The interior point stops at μ = 1e-9 with its complementarity there, so its objective
     // may sit up to μ per bound (≈ 500 bounds: 5e-7, 1.4e-5 of this reward) off the optimum;
     // measured 1.4e-7 (4e-6 relative) below SQP's.
@@ -172,13 +182,10 @@ fn optimum_command_reports_the_optimum_sqp_finds() {
         stdout.contains("initialising from the inputs in"),
         "{stdout}"
     );
-    let text = std::fs::read_to_string(again.join("summary.json")).expect("summary.json");
-    let restarted: serde_json::Value = serde_json::from_str(&text).expect("JSON");
+    let restarted = summary_of(&again);
     assert_eq!(restarted["optimum"]["status"], "optimal");
     assert!(restarted["optimum"]["initial_cumulative_reward"].is_null());
-    let reward_again = restarted["metrics"]["cumulative_reward"]
-        .as_f64()
-        .expect("a number");
+    let reward_again = reward_of(&restarted);
     assert!(
         (reward_again - best).abs() <= 2e-5 * best.abs(),
         "from the optimum's own inputs {reward_again} vs SQP {best}"
