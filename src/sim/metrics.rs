@@ -141,7 +141,8 @@ pub struct MetricsBuilder {
     bands: Vec<(usize, f64, f64, String)>,
     band_lo_hi: Vec<(f64, f64)>,
     terms: Vec<TermMetrics>,
-    input_sums: Vec<InputMetrics>,
+    /// Each input's name and its sum over the steps so far.
+    input_sums: Vec<(String, f64)>,
     epi: f64,
     steps: usize,
     times_ms: Vec<f64>,
@@ -181,10 +182,7 @@ impl MetricsBuilder {
             input_sums: m
                 .inputs
                 .iter()
-                .map(|u| InputMetrics {
-                    name: u.info.name.clone(),
-                    mean: 0.0,
-                })
+                .map(|u| (u.info.name.clone(), 0.0))
                 .collect(),
             epi: 0.0,
             steps: 0,
@@ -211,7 +209,7 @@ impl MetricsBuilder {
             total.total += value;
         }
         for (sum, value) in self.input_sums.iter_mut().zip(input) {
-            sum.mean += value;
+            sum.1 += value;
         }
         self.steps += 1;
         for (i, b) in self.bands.iter_mut().enumerate() {
@@ -238,9 +236,6 @@ impl MetricsBuilder {
         let total_penalty: f64 = self.bands.iter().map(|b| b.1).sum();
         self.times_ms.sort_by(f64::total_cmp);
         let steps = self.steps.max(1) as f64;
-        for sum in &mut self.input_sums {
-            sum.mean /= steps;
-        }
         Metrics {
             steps: self.steps,
             epi: self.epi,
@@ -256,7 +251,14 @@ impl MetricsBuilder {
                 })
                 .collect(),
             terms: self.terms,
-            inputs: self.input_sums,
+            inputs: self
+                .input_sums
+                .into_iter()
+                .map(|(name, sum)| InputMetrics {
+                    name,
+                    mean: sum / steps,
+                })
+                .collect(),
             solve: SolveStats {
                 median_ms: percentile(&self.times_ms, 0.5),
                 p95_ms: percentile(&self.times_ms, 0.95),
