@@ -1,6 +1,9 @@
 //! The season optimum bounds every closed loop from above, and `ghm optimum` reports it
 //! (built-in weather; no ../shared).
 
+mod common;
+
+use common::bin::ghm_with_stdout;
 use ghm::control::{InputTable, Mpc};
 use ghm::model::Plant;
 use ghm::sim::optimum::season_optimum;
@@ -93,25 +96,19 @@ fn no_closed_loop_beats_the_season_optimum() {
 fn optimum_command_reports_the_optimum_sqp_finds() {
     let dir = std::env::temp_dir().join(format!("ghm-optimum-cli-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_ghm"))
-        .args([
-            "optimum",
-            "models/lettuce.ghm",
-            "--days",
-            "1",
-            "--init-horizon",
-            "1h",
-        ])
-        .args([
-            "--solver",
-            "ipm",
-            "--out",
-            dir.to_str().expect("utf-8 temp path"),
-        ])
-        .output()
-        .expect("run ghm");
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{stderr}");
+    let (ok, _, stderr) = ghm_with_stdout(&[
+        "optimum",
+        "models/lettuce.ghm",
+        "--days",
+        "1",
+        "--init-horizon",
+        "1h",
+        "--solver",
+        "ipm",
+        "--out",
+        dir.to_str().expect("utf-8 temp path"),
+    ]);
+    assert!(ok, "{stderr}");
     let summary = summary_of(&dir);
     let optimum = &summary["optimum"];
     assert_eq!(optimum["solver"], "ipm", "{optimum}");
@@ -167,17 +164,20 @@ fn optimum_command_reports_the_optimum_sqp_finds() {
     // Started from a season's inputs (here the optimum's own `trajectory.csv`, whose
     // columns are `u_<input>`) instead of a closed loop: the same optimum, no closed loop.
     let again = dir.join("again");
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_ghm"))
-        .args(["optimum", "models/lettuce.ghm", "--days", "1"])
-        .args(["--solver", "ipm", "--init-inputs"])
-        .arg(dir.join("trajectory.csv"))
-        .arg("--out")
-        .arg(&again)
-        .output()
-        .expect("run ghm");
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{stderr}");
-    let stdout = String::from_utf8_lossy(&out.stdout);
+    let trajectory = dir.join("trajectory.csv");
+    let (ok, stdout, stderr) = ghm_with_stdout(&[
+        "optimum",
+        "models/lettuce.ghm",
+        "--days",
+        "1",
+        "--solver",
+        "ipm",
+        "--init-inputs",
+        trajectory.to_str().expect("utf-8 temp path"),
+        "--out",
+        again.to_str().expect("utf-8 temp path"),
+    ]);
+    assert!(ok, "{stderr}");
     assert!(
         stdout.contains("initialising from the inputs in"),
         "{stdout}"
@@ -195,21 +195,18 @@ fn optimum_command_reports_the_optimum_sqp_finds() {
     let short = dir.join("short.csv");
     let rows: Vec<&str> = csv.lines().take(STEPS / 2).collect();
     std::fs::write(&short, rows.join("\n")).unwrap();
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_ghm"))
-        .args([
-            "optimum",
-            "models/lettuce.ghm",
-            "--days",
-            "1",
-            "--init-inputs",
-        ])
-        .arg(&short)
-        .arg("--out")
-        .arg(dir.join("short"))
-        .output()
-        .expect("run ghm");
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success());
+    let short_out = dir.join("short");
+    let (ok, _, stderr) = ghm_with_stdout(&[
+        "optimum",
+        "models/lettuce.ghm",
+        "--days",
+        "1",
+        "--init-inputs",
+        short.to_str().expect("utf-8 temp path"),
+        "--out",
+        short_out.to_str().expect("utf-8 temp path"),
+    ]);
+    assert!(!ok);
     assert!(
         stderr.contains("rows of inputs; the season has 48 steps") && !stderr.contains("panicked"),
         "{stderr}"
