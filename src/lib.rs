@@ -87,7 +87,7 @@ pub mod study;
 /// # }
 /// ```
 pub mod prelude {
-    pub use crate::lang::model::{Integrator, Redraw, Uncertainty};
+    pub use crate::lang::model::{Integrator, Redraw, SolverHints, Uncertainty};
     pub use crate::lang::Model;
     pub use crate::model::{
         if_else, Band, BuildError, Disturbance, Expr, Input, ModelBuilder, Operand, Output, Param,

@@ -259,3 +259,19 @@ fn sample_periods_out_of_range_are_errors() {
         loads(&format!("state x = 1\nder x = -x\nsample {period}\n"));
     }
 }
+
+// ---- solver hints ----------------------------------------------------------------------
+
+#[test]
+fn the_last_objective_scale_is_the_one_every_solver_is_asked_for() {
+    use ghm::nlp::{Nlp, Ocp};
+    let text = "state x = 1\ninput u in [0, 1]\nder x = -x + u\nsample 60\ncost c = u\n";
+    assert_eq!(loads(text).solver.objective_scale, 1.0);
+    let scaled = loads(&format!(
+        "{text}solver objective_scale = 10\nsolver objective_scale = 1e3\n"
+    ));
+    assert_eq!(scaled.solver.objective_scale, 1000.0);
+    let plant = std::sync::Arc::new(ghm::model::Plant::new(scaled));
+    let ocp = Ocp::new(plant, 3).unwrap();
+    assert_eq!(ocp.objective_scaling(), 1000.0);
+}

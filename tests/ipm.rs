@@ -266,13 +266,15 @@ fn a_restart_whose_hessian_keeps_needing_corrections_starts_again_from_the_plan(
 
 /// `x_{k+1} = x_k + u_k` from `x_0 = 0`, `u_k ∈ [−1, 1]`: minimise
 /// `Σ_k (x_{k+1} − goal)² + ρ u_k²`, optionally with the row `x_N ≥ floor`, or an
-/// objective that is NaN. Variables `[u_0] [x_1 u_1] … [x_N]`.
+/// objective that is NaN, and the objective scale it asks the solvers for. Variables
+/// `[u_0] [x_1 u_1] … [x_N]`.
 struct Chain {
     n: usize,
     goal: f64,
     floor: Option<f64>,
     nan: bool,
     staged: bool,
+    objective_scale: f64,
     jacobian: Pattern,
     hessian: Pattern,
 }
@@ -285,6 +287,7 @@ impl Chain {
             floor: None,
             nan: false,
             staged: true,
+            objective_scale: 1.0,
             jacobian: Pattern::default(),
             hessian: Pattern::default(),
         };
@@ -380,6 +383,9 @@ impl Nlp for Chain {
             *value = sigma * if v % 2 == 1 { 2.0 } else { 2.0 * Self::RHO };
         }
     }
+    fn objective_scaling(&self) -> f64 {
+        self.objective_scale
+    }
     fn stages(&self) -> Option<Stages> {
         self.staged.then(|| Stages {
             states: std::iter::once(0..0)
@@ -418,6 +424,59 @@ fn optimal_on_a_chain_equals_sqp() {
         );
     }
     assert!((ipm.x[chain.u(0)] - 1.0).abs() < 1e-6);
+}
+
+#[test]
+fn an_objective_scale_changes_no_answer_of_either_back_end() {
+    // The goal out of reach with a floor on x_N: bounds and a row active, so every kind of
+    // multiplier is nonzero, and each must come back in the problem's own units.
+    let mut plain = Chain::new(5, 3.0);
+    plain.floor = Some(2.0);
+    let mut scaled = Chain::new(5, 3.0);
+    scaled.floor = Some(2.0);
+    scaled.objective_scale = 1000.0;
+    let start = vec![0.0; plain.n_vars()];
+    for name in ["ipm", "sqp"] {
+        let solver = || -> Box<dyn Solver> {
+            match name {
+                "ipm" => Box::new(Ipm::default()),
+                _ => Box::new(Sqp::default()),
+            }
+        };
+        let a = solver().solve(&mut plain, Start::cold(&start));
+        let b = solver().solve(&mut scaled, Start::cold(&start));
+        assert!(a.status.is_success() && b.status.is_success(), "{name}");
+        let close = |u: &[f64], v: &[f64]| u.iter().zip(v).all(|(p, q)| (p - q).abs() < 1e-6);
+        assert!(close(&a.x, &b.x), "{name}: {:?} vs {:?}", a.x, b.x);
+        assert!(
+            close(&a.multipliers, &b.multipliers),
+            "{name}: {:?} vs {:?}",
+            a.multipliers,
+            b.multipliers
+        );
+        assert!(
+            close(&a.bound_multipliers, &b.bound_multipliers),
+            "{name}: {:?} vs {:?}",
+            a.bound_multipliers,
+            b.bound_multipliers
+        );
+        assert!(a.bound_multipliers.iter().any(|v| v.abs() > 1e-3), "{name}");
+        assert!(
+            (a.stats.objective - b.stats.objective).abs() < 1e-8,
+            "{name}"
+        );
+        let kkt = kkt_residuals(&mut plain, &b.x, &b.multipliers, &b.bound_multipliers);
+        assert!(kkt.max() < 1e-6, "{name}: {kkt:?}");
+        // Restarted from its own answer, the scaled problem is solved at once: the
+        // multipliers went back in at the scale they came out of.
+        let warm = solver().solve(
+            &mut scaled,
+            Start::warm(&b.x, &b.multipliers, &b.bound_multipliers),
+        );
+        assert!(warm.status.is_success(), "{name}");
+        assert!(warm.stats.iterations <= 2, "{name}: {:?}", warm.stats);
+        assert!(close(&warm.x, &b.x), "{name}");
+    }
 }
 
 #[test]

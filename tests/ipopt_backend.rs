@@ -10,6 +10,8 @@ use ghm::solve::{Ipopt, IpoptOptions, SolveStatus, Solver, Start};
 struct Hs071 {
     jacobian: Pattern,
     hessian: Pattern,
+    /// The objective scale it asks the solvers for.
+    objective_scale: f64,
 }
 
 impl Hs071 {
@@ -26,11 +28,18 @@ impl Hs071 {
                 hessian.push(row, col);
             }
         }
-        Hs071 { jacobian, hessian }
+        Hs071 {
+            jacobian,
+            hessian,
+            objective_scale: 1.0,
+        }
     }
 }
 
 impl Nlp for Hs071 {
+    fn objective_scaling(&self) -> f64 {
+        self.objective_scale
+    }
     fn n_vars(&self) -> usize {
         4
     }
@@ -139,6 +148,26 @@ fn hs071_cold_start_is_optimal_with_signed_multipliers() {
         "{:?}",
         sol.bound_multipliers
     );
+}
+
+#[test]
+fn hs071_with_its_objective_scaled_gives_the_same_answer_in_its_own_units() {
+    let mut nlp = Hs071 {
+        objective_scale: 1000.0,
+        ..Hs071::new()
+    };
+    let mut solver = Ipopt::default();
+    let sol = solver.solve(&mut nlp, Start::cold(&[1.0, 5.0, 5.0, 1.0]));
+    assert_eq!(sol.status, SolveStatus::Optimal);
+    assert!((sol.stats.objective - F_STAR).abs() < 1e-6);
+    for (got, want) in sol.multipliers.iter().zip([-0.552_294, 0.161_469]) {
+        assert!((got - want).abs() < 1e-5, "{:?}", sol.multipliers);
+    }
+    assert!((sol.bound_multipliers[0] + 1.087_871).abs() < 1e-5);
+    let start = Start::warm(&sol.x, &sol.multipliers, &sol.bound_multipliers);
+    let warm = solver.solve(&mut nlp, start);
+    assert_eq!(warm.status, SolveStatus::Optimal);
+    assert!(warm.stats.iterations <= 5, "{:?}", warm.stats);
 }
 
 #[test]

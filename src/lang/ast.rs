@@ -283,6 +283,13 @@ pub enum Stmt {
         /// The term's name, or for `soft` the output's.
         name: Name,
     },
+    /// `solver SETTING = VALUE, ...`: how every solver is to see the problem.
+    Solver {
+        /// `(setting, value)` pairs in order, e.g. `(objective_scale, 1000)`.
+        settings: Vec<(Name, Name)>,
+        /// Where the statement is.
+        span: Span,
+    },
     /// `uncertainty SETTING = VALUE, ...`: the parametric uncertainty rule.
     Uncertainty {
         /// `(setting, value)` pairs in order, e.g. `(redraw, step)`, `(spread, 0.5)`.

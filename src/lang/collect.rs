@@ -13,6 +13,8 @@ pub(crate) struct Decls {
     pub(crate) items: Vec<Statement>,
     pub(crate) sample: Option<Statement>,
     pub(crate) uncertainty: Option<Statement>,
+    /// Every `solver` statement, in order (a later setting replaces an earlier one).
+    pub(crate) solver: Vec<Statement>,
 }
 
 fn key(stmt: &Stmt) -> Option<(String, String)> {
@@ -55,6 +57,7 @@ pub(crate) fn collect(statements: Vec<Statement>, diags: &mut Vec<Diagnostic>) -
                 d.sample = Some(s);
             }
             Stmt::Uncertainty { .. } => d.uncertainty = Some(s),
+            Stmt::Solver { .. } => d.solver.push(s),
             Stmt::Drop { kind, name } => {
                 let k = if kind == "soft" { "soft" } else { "term" };
                 let key = (k.to_string(), name.text.clone());

@@ -37,6 +37,7 @@ pub const STATEMENT_KEYWORDS: &[&str] = &[
     "override",
     "drop",
     "uncertainty",
+    "solver",
     "fn",
 ];
 
@@ -485,16 +486,14 @@ impl Builder {
                 let name = self.name(self.next(&mut it, span)?);
                 Stmt::Drop { kind, name }
             }
-            Rule::uncertainty_stmt => {
-                let mut settings = Vec::new();
-                for s in it {
-                    let mut kv = s.children();
-                    let k = self.name(self.next(&mut kv, span)?);
-                    let v = self.name(self.next(&mut kv, span)?);
-                    settings.push((k, v));
-                }
-                Stmt::Uncertainty { settings, span }
-            }
+            Rule::uncertainty_stmt => Stmt::Uncertainty {
+                settings: self.settings(it, span)?,
+                span,
+            },
+            Rule::solver_stmt => Stmt::Solver {
+                settings: self.settings(it, span)?,
+                span,
+            },
             _ => return Err(self.internal(span)),
         };
         Ok(Statement {
@@ -639,6 +638,22 @@ impl Builder {
             e = wrap(Box::new(e), span);
         }
         Ok(e)
+    }
+
+    /// The `SETTING = VALUE` pairs of an `uncertainty` or `solver` statement.
+    fn settings<'i>(
+        &self,
+        pairs: impl Iterator<Item = Pair<'i, Rule>>,
+        span: Span,
+    ) -> Built<Vec<(Name, Name)>> {
+        pairs
+            .map(|setting| {
+                let mut kv = setting.children();
+                let key = self.name(self.next(&mut kv, span)?);
+                let value = self.name(self.next(&mut kv, span)?);
+                Ok((key, value))
+            })
+            .collect()
     }
 
     fn next<'i>(

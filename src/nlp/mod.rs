@@ -180,6 +180,14 @@ pub trait Nlp {
         None
     }
 
+    /// The factor a solver multiplies the objective by (IPOPT's user scaling,
+    /// `obj_scaling`); 1 (the default) leaves it as it is. Every back-end of
+    /// [`crate::solve`] applies it the same way and answers in the problem's own units:
+    /// the same point, multipliers and objective as unscaled.
+    fn objective_scaling(&self) -> f64 {
+        1.0
+    }
+
     /// Maps `x` onto (or closer to) the feasible set cheaply, if the problem knows how: an
     /// optimal-control problem re-simulates its states from the inputs. Returns whether
     /// `x` was changed. Solvers may try the restored point when a step is rejected.

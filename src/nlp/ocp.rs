@@ -962,6 +962,11 @@ impl Ocp {
 }
 
 impl Nlp for Ocp {
+    /// The model's `solver objective_scale`.
+    fn objective_scaling(&self) -> f64 {
+        self.plant.model.solver.objective_scale
+    }
+
     fn n_vars(&self) -> usize {
         self.layout.n_vars()
     }

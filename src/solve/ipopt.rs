@@ -11,6 +11,7 @@
 //! Multipliers: IPOPT's stationarity is `∇f + Jᵀλ − z_L + z_U = 0`; this module returns
 //! `λ` as is and `ν = z_U − z_L`, and splits a warm start's `ν` back into `z_L, z_U`.
 
+use super::scaled_objective::solve_scaled;
 use super::solution_builder::{Ending, SolutionBuilder};
 use super::{kkt_residuals, Solution, SolveStatus, Solver, Start};
 use crate::nlp::{Nlp, Pattern};
@@ -153,6 +154,21 @@ impl Solver for Ipopt {
     }
 
     fn solve(&mut self, nlp: &mut dyn Nlp, start: Start<'_>) -> Solution {
+        solve_scaled(nlp, start, |nlp, start, scale| {
+            self.solve_in_scale(nlp, start, scale)
+        })
+    }
+}
+
+impl Ipopt {
+    /// A solve of `nlp`, whose objective is the problem's times `objective_scale` (which
+    /// a warm start's barrier follows).
+    fn solve_in_scale(
+        &mut self,
+        nlp: &mut dyn Nlp,
+        start: Start<'_>,
+        objective_scale: f64,
+    ) -> Solution {
         let builder = SolutionBuilder::start("ipopt", false);
         let (n, m) = (nlp.n_vars(), nlp.n_cons());
         let (jacobian, hessian) = (
@@ -200,7 +216,10 @@ impl Solver for Ipopt {
         if o.warm_start && start.multipliers.is_some() && start.bound_multipliers.is_some() {
             options.extend([
                 ("warm_start_init_point", Value::Str("yes")),
-                ("mu_init", Value::Num(o.warm_start_mu_init)),
+                (
+                    "mu_init",
+                    Value::Num(o.warm_start_mu_init * objective_scale),
+                ),
                 ("warm_start_bound_push", Value::Num(o.warm_start_push)),
                 ("warm_start_bound_frac", Value::Num(o.warm_start_push)),
                 ("warm_start_slack_bound_push", Value::Num(o.warm_start_push)),

@@ -22,6 +22,7 @@ mod ipm;
 mod kkt;
 mod qp;
 pub mod riccati;
+mod scaled_objective;
 mod solution_builder;
 mod sqp;
 mod termination;

@@ -33,6 +33,7 @@
 use super::error::SetupError;
 use super::kkt::{all_finite, l1_violation, residuals_of, Bounds, PointInfo};
 use super::qp::{QpData, QpOutcome, QpSolver};
+use super::scaled_objective::solve_scaled;
 use super::solution_builder::{Ending, SolutionBuilder};
 use super::termination::Termination;
 use super::{KktResiduals, Solution, SolveStatus, Solver, Start};
@@ -439,6 +440,13 @@ impl Solver for Sqp {
     }
 
     fn solve(&mut self, nlp: &mut dyn Nlp, start: Start<'_>) -> Solution {
+        solve_scaled(nlp, start, |nlp, start, _| self.solve_in_scale(nlp, start))
+    }
+}
+
+impl Sqp {
+    /// A solve of `nlp` as given (its objective scaled already).
+    fn solve_in_scale(&mut self, nlp: &mut dyn Nlp, start: Start<'_>) -> Solution {
         let builder = SolutionBuilder::start("sqp", self.options.trace);
         self.work.corrected = 0;
         let bounds = Bounds::of(nlp);

@@ -342,6 +342,7 @@ impl<'d> Checker<'d> {
         self.check_clocks(&dists);
         let (sample_period, integrator, substeps) = self.sample(d.sample.as_ref());
         let uncertainty = self.uncertainty(d.uncertainty.as_ref());
+        let solver = self.solver_hints(&d.solver);
         self.warn_unused(&param_decls, &consts, &dists, &inputs);
 
         let (name, description) = match &d.model {
@@ -369,6 +370,7 @@ impl<'d> Checker<'d> {
             terms,
             soft,
             uncertainty,
+            solver,
             warnings: Vec::new(),
             origins: std::mem::take(&mut self.origins),
         })

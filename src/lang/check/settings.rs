@@ -453,4 +453,42 @@ impl Checker<'_> {
         }
         u
     }
+
+    /// The settings of every `solver` statement, a later one replacing an earlier.
+    pub(super) fn solver_hints(&mut self, statements: &[Statement]) -> SolverHints {
+        let mut hints = SolverHints::default();
+        let settings = statements.iter().filter_map(|s| match &s.stmt {
+            Stmt::Solver { settings, .. } => Some(settings),
+            _ => None,
+        });
+        for (key, value) in settings.flatten() {
+            match (key.text.as_str(), value.text.parse::<f64>()) {
+                ("objective_scale", Ok(scale)) if scale > 0.0 && scale.is_finite() => {
+                    hints.objective_scale = scale
+                }
+                ("objective_scale", _) => self.diags.push(
+                    Diagnostic::error(
+                        "E030",
+                        value.span,
+                        format!(
+                            "the objective's scale must be a positive number, not `{}`",
+                            value.text
+                        ),
+                    )
+                    .label("not a positive number")
+                    .help("e.g. `solver objective_scale = 1000` for stage costs around 1e-4"),
+                ),
+                _ => self.diags.push(
+                    Diagnostic::error(
+                        "E030",
+                        key.span.to(value.span),
+                        format!("unknown solver setting `{} = {}`", key.text, value.text),
+                    )
+                    .label("not understood")
+                    .help("the setting is `objective_scale = <positive number>`"),
+                ),
+            }
+        }
+        hints
+    }
 }

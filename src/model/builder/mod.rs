@@ -212,6 +212,7 @@ struct Parts {
     integrator: Integrator,
     substeps: usize,
     uncertainty: Uncertainty,
+    solver: SolverHints,
     errors: Vec<BuildError>,
 }
 
@@ -271,6 +272,7 @@ impl ModelBuilder {
                 integrator: Integrator::Rk4,
                 substeps: 1,
                 uncertainty: Uncertainty::default(),
+                solver: SolverHints::default(),
                 errors: Vec::new(),
             }),
         }
@@ -589,6 +591,11 @@ impl ModelBuilder {
         self.with(|p| p.uncertainty = rule);
     }
 
+    /// How the solvers are to see the problem (`solver ...`; the defaults otherwise).
+    pub fn solver_hints(&self, hints: SolverHints) {
+        self.with(|p| p.solver = hints);
+    }
+
     /// The number `v` as an expression (`b.constant(2.0).pow(x)` for `2^x`); in arithmetic
     /// a plain `f64` does.
     pub fn constant(&self, v: f64) -> Expr<'_> {
@@ -718,6 +725,7 @@ impl ModelBuilder {
             terms: p.terms,
             soft,
             uncertainty: p.uncertainty,
+            solver: p.solver,
             warnings: Vec::new(),
             origins: Default::default(),
         })

@@ -178,14 +178,16 @@ pub(super) struct StartKind {
 }
 
 impl StartKind {
-    /// The kind of `start` under `options`.
-    pub fn of(start: &Start<'_>, options: &IpmOptions) -> StartKind {
+    /// The kind of `start` under `options`, for a problem whose objective is scaled by
+    /// `objective_scale`: a warm start's barrier follows the scale, as the complementarity
+    /// of the multipliers it carries does.
+    pub fn of(start: &Start<'_>, options: &IpmOptions, objective_scale: f64) -> StartKind {
         let warm = start.multipliers.is_some() && start.bound_multipliers.is_some();
         StartKind {
             warm,
             close: start.shifted && start.multipliers.is_some() && !warm,
             mu: if warm {
-                options.warm_start_mu
+                options.warm_start_mu * objective_scale
             } else {
                 options.initial_mu
             },

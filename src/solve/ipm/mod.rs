@@ -77,6 +77,7 @@ mod workspace;
 
 pub use options::{IpmOptions, MuStrategy};
 
+use super::scaled_objective::solve_scaled;
 use super::solution_builder::{Ending, SolutionBuilder};
 use super::termination::Termination;
 use super::{Solution, SolveStatus, Solver, Start};
@@ -165,6 +166,20 @@ impl Solver for Ipm {
     }
 
     fn solve(&mut self, nlp: &mut dyn Nlp, start: Start<'_>) -> Solution {
+        solve_scaled(nlp, start, |nlp, start, scale| {
+            self.solve_in_scale(nlp, start, scale)
+        })
+    }
+}
+
+impl Ipm {
+    /// A solve of `nlp`, whose objective is the problem's times `objective_scale`.
+    fn solve_in_scale(
+        &mut self,
+        nlp: &mut dyn Nlp,
+        start: Start<'_>,
+        objective_scale: f64,
+    ) -> Solution {
         let builder = SolutionBuilder::start("ipm", self.options.trace);
         let refused = |status| {
             let mut x = start.x.to_vec();
@@ -181,7 +196,7 @@ impl Solver for Ipm {
         let Some(mut workspace) = self.workspace.take() else {
             return refused(SolveStatus::NumericalError);
         };
-        let (status, iterations, objective) = self.run(nlp, &mut workspace, start);
+        let (status, iterations, objective) = self.run(nlp, &mut workspace, start, objective_scale);
         let (x, lambda, nu, ending) = workspace.solution(nlp, status, iterations, objective);
         self.workspace = Some(workspace);
         let ending = Ending {
@@ -190,16 +205,16 @@ impl Solver for Ipm {
         };
         builder.build(ending, x, lambda, nu)
     }
-}
 
-impl Ipm {
-    /// The iterations of one solve in `ws`; returns how it ended, after how many
-    /// iterations, with which objective.
+    /// The iterations of one solve in `ws`, of a problem whose objective is scaled by
+    /// `objective_scale`; returns how it ended, after how many iterations, with which
+    /// objective.
     fn run(
         &mut self,
         nlp: &mut dyn Nlp,
         ws: &mut Workspace,
         start: Start<'_>,
+        objective_scale: f64,
     ) -> (SolveStatus, usize, f64) {
         let opts = self.options.clone();
         let max_iterations = self
@@ -213,7 +228,7 @@ impl Ipm {
         );
         self.corrections = 0;
         self.restorations = 0;
-        let kind = StartKind::of(&start, &opts);
+        let kind = StartKind::of(&start, &opts, objective_scale);
         if !ws.start_solve(nlp, &start, kind, max_iterations) {
             return (SolveStatus::InvalidNumber, 0, f64::NAN);
         }
