@@ -10,7 +10,7 @@ use super::problem::BarrierProblem;
 #[derive(Debug, Clone)]
 pub(super) struct Barrier {
     mu: f64,
-    /// `ε / 10`: below it `μ` does not fall.
+    /// `ε σ / 10` (`σ` the objective's scale): below it `μ` does not fall.
     mu_min: f64,
     /// The adaptive strategy's state; `None` under the monotone rule.
     adaptive: Option<Adaptive>,
@@ -19,14 +19,16 @@ pub(super) struct Barrier {
 impl Barrier {
     /// The barrier of a solve starting at `mu` (a warm start keeps the monotone rule: see
     /// [`MuStrategy`]); `average` gives the starting point's average complementarity,
-    /// which bounds the adaptive strategy's `μ`.
+    /// which bounds the adaptive strategy's `μ`. Of an objective scaled by
+    /// `objective_scale` the floor of `μ` is scaled too: the solve ends on its error in the
+    /// problem's own units, and a barrier below the tolerance there gains nothing.
     pub fn new(
         options: &IpmOptions,
-        mu: f64,
+        (mu, objective_scale): (f64, f64),
         warm: bool,
         average: impl FnOnce() -> f64,
     ) -> Barrier {
-        let mu_min = options.tolerance / 10.0;
+        let mu_min = options.tolerance * objective_scale / 10.0;
         let adaptive = (options.mu_strategy == MuStrategy::Adaptive && !warm).then(|| Adaptive {
             free: true,
             references: RecentErrors::default(),

@@ -286,13 +286,14 @@ impl Iterate {
 
     /// IPOPT's optimality error `E_μ`: stationarity scaled by `s_d`, the constraint
     /// violation, complementarity against `μ` scaled by `s_c` (`scratch`: one entry per
-    /// variable).
+    /// variable). The dual parts, in the units of an objective scaled by `objective_scale`,
+    /// are divided by it: the error in the problem's own units.
     pub fn optimality_error(
         &self,
         problem: &BarrierProblem,
         jacobian: &Pattern,
         ev: &Eval,
-        mu: f64,
+        (mu, objective_scale): (f64, f64),
         scratch: &mut [f64],
     ) -> f64 {
         let (n, m) = (problem.n, problem.m);
@@ -325,7 +326,9 @@ impl Iterate {
         let s_d =
             ((multiplier_sum + bounds.sum) / ((m + bounds.count).max(1) as f64)).max(S_MAX) / S_MAX;
         let s_c = (bounds.sum / (bounds.count.max(1) as f64)).max(S_MAX) / S_MAX;
-        (stationarity / s_d).max(primal).max(bounds.largest / s_c)
+        (stationarity / s_d / objective_scale)
+            .max(primal)
+            .max(bounds.largest / s_c / objective_scale)
     }
 
     /// The largest primal step along `dw` (variables) and `dt` (inequality slacks), by

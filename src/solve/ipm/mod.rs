@@ -232,15 +232,23 @@ impl Ipm {
         if !ws.start_solve(nlp, &start, kind, max_iterations) {
             return (SolveStatus::InvalidNumber, 0, f64::NAN);
         }
-        let mut barrier = Barrier::new(&opts, kind.mu, kind.warm, || {
+        let mut barrier = Barrier::new(&opts, (kind.mu, objective_scale), kind.warm, || {
             average_complementarity(&ws.problem, &ws.it, None)
         });
         for iteration in 0..=max_iterations {
             if !ws.ev.evaluate(nlp, &ws.it) {
                 return (SolveStatus::InvalidNumber, iteration, ws.ev.f);
             }
-            let e0 = optimality_error(ws, 0.0);
-            if let Some(status) = termination.check(e0, iteration, false) {
+            // The barrier follows the error of the problem as solved; the solve ends on the
+            // error in the problem's own units, so that a scaled objective is solved to the
+            // same tolerance as unscaled.
+            let e0 = optimality_error(ws, 0.0, 1.0);
+            let e_own = if objective_scale == 1.0 {
+                e0
+            } else {
+                optimality_error(ws, 0.0, objective_scale)
+            };
+            if let Some(status) = termination.check(e_own, iteration, false) {
                 return (status, iteration, ws.ev.f);
             }
             update_barrier(ws, &mut barrier, e0);
@@ -271,7 +279,7 @@ impl Ipm {
                 }
                 // Stuck away from feasibility: the constraints cannot be met from here.
                 let infeasible = theta > opts.acceptable_tolerance;
-                return (termination.stuck(e0, infeasible), iteration, ws.ev.f);
+                return (termination.stuck(e_own, infeasible), iteration, ws.ev.f);
             };
             ws.line_search.accepted(accepted, theta, phi);
             // After a run of short steps that raised the violation, restore instead.
@@ -300,10 +308,16 @@ impl Ipm {
     }
 }
 
-/// IPOPT's optimality error at the iterate of `ws` for barrier parameter `mu`.
-fn optimality_error(ws: &mut Workspace, mu: f64) -> f64 {
-    ws.it
-        .optimality_error(&ws.problem, &ws.jacobian, &ws.ev, mu, &mut ws.scratch)
+/// IPOPT's optimality error at the iterate of `ws` for barrier parameter `mu`, its dual
+/// parts divided by `objective_scale`.
+fn optimality_error(ws: &mut Workspace, mu: f64, objective_scale: f64) -> f64 {
+    ws.it.optimality_error(
+        &ws.problem,
+        &ws.jacobian,
+        &ws.ev,
+        (mu, objective_scale),
+        &mut ws.scratch,
+    )
 }
 
 /// The barrier parameter's update before the factorisation, from the optimality error
@@ -317,7 +331,7 @@ fn update_barrier(ws: &mut Workspace, barrier: &mut Barrier, e0: f64) {
         scratch,
         ..
     } = ws;
-    let error_at = |mu| it.optimality_error(problem, jacobian, ev, mu, scratch);
+    let error_at = |mu| it.optimality_error(problem, jacobian, ev, (mu, 1.0), scratch);
     let average = || average_complementarity(problem, it, None);
     if barrier.update(e0, error_at, average) {
         ws.line_search.new_barrier_problem();

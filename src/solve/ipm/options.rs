@@ -10,7 +10,8 @@ pub struct IpmOptions {
     /// `docs/benchmarks.md`, "Room for a cold start"). No lettuce solve comes near 200.
     pub max_iterations: usize,
     /// KKT residual (IPOPT's scaled optimality error, with `μ = 0`) at which the solve is
-    /// optimal.
+    /// optimal, in the problem's own units where its objective is scaled
+    /// ([`Nlp::objective_scaling`](crate::nlp::Nlp::objective_scaling)).
     pub tolerance: f64,
     /// KKT residual accepted when the method cannot go further or reaches its limit, or
     /// after `acceptable_iterations` iterations in a row below it. 1e-5 (IPOPT's is 1e-6):
@@ -23,7 +24,8 @@ pub struct IpmOptions {
     pub acceptable_iterations: usize,
     /// The barrier parameter of a cold start.
     pub initial_mu: f64,
-    /// The barrier parameter of a warm start (a start with multipliers).
+    /// The barrier parameter of a warm start (a start with multipliers), times the
+    /// problem's objective scale.
     pub warm_start_mu: f64,
     /// How far inside its bounds a cold start is pushed, relative to the bound's size.
     pub bound_push: f64,
