@@ -213,3 +213,95 @@ fn optimum_command_reports_the_optimum_sqp_finds() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_season_optimum_resumed_from_a_checkpoint_reaches_the_same_optimum() {
+    use ghm::sim::optimum::resume_season_optimum;
+    use ghm::solve::{Checkpoint, Ipm, Solver};
+    use std::sync::Mutex;
+    let (plant, weather) = setup();
+    let (_, inputs) = mpc(&plant, &weather, 2);
+    let kept: Arc<Mutex<Vec<Checkpoint>>> = Arc::default();
+    let mut ipm = Ipm::default();
+    let sink = Arc::clone(&kept);
+    assert!(ipm.set_checkpoints(
+        5,
+        Some(Box::new(move |c: &Checkpoint| sink
+            .lock()
+            .unwrap()
+            .push(c.clone())))
+    ));
+    let whole = season_optimum(plant.clone(), &weather, STEPS, &inputs, &mut ipm).unwrap();
+    assert!(whole.solution.status.is_success());
+    let checkpoints = kept.lock().unwrap().clone();
+    assert!(
+        checkpoints.len() >= 2,
+        "{} checkpoints in {} iterations",
+        checkpoints.len(),
+        whole.solution.stats.iterations
+    );
+    assert!(checkpoints.iter().all(|c| c.iteration % 5 == 0));
+    // From the middle checkpoint: the same optimum, in about the iterations left.
+    let middle = &checkpoints[checkpoints.len() / 2];
+    let mut fresh = Ipm::default();
+    let resumed =
+        resume_season_optimum(plant.clone(), &weather, STEPS, middle, &mut fresh).unwrap();
+    assert!(resumed.solution.status.is_success());
+    let (a, b) = (
+        whole.solution.stats.objective,
+        resumed.solution.stats.objective,
+    );
+    assert!((a - b).abs() <= 1e-6 * a.abs(), "{a} vs resumed {b}");
+    let left = whole.solution.stats.iterations - middle.iteration;
+    assert!(
+        resumed.solution.stats.iterations <= 2 * left + 10,
+        "{} iterations resumed after {}, against {left} left",
+        resumed.solution.stats.iterations,
+        middle.iteration
+    );
+    // A checkpoint of another problem is refused.
+    let mut short = middle.clone();
+    short.x.pop();
+    assert!(resume_season_optimum(plant, &weather, STEPS, &short, &mut fresh).is_err());
+}
+
+#[test]
+fn a_checkpoint_of_another_optimum_is_refused_with_a_message() {
+    let dir = std::env::temp_dir().join(format!("ghm-optimum-ckpt-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let checkpoint = serde_json::json!({
+        "spec": {"model": "another.ghm"},
+        "model_hash": "0",
+        "checkpoint": {"iteration": 5, "x": [], "multipliers": [], "bound_multipliers": [], "barrier": 1e-3},
+    });
+    std::fs::write(
+        dir.join(ghm::job::optimum_checkpoint::FILE),
+        checkpoint.to_string(),
+    )
+    .unwrap();
+    let out = dir.to_str().expect("utf-8 temp path");
+    let args = [
+        "optimum",
+        "models/lettuce.ghm",
+        "--days",
+        "1",
+        "--solver",
+        "ipm",
+        "--out",
+        out,
+    ];
+    let (ok, _, stderr) = ghm_with_stdout(&args);
+    assert!(!ok);
+    assert!(
+        stderr.contains("it is of another optimum") && stderr.contains("--overwrite"),
+        "{stderr}"
+    );
+    // --overwrite starts afresh, and a finished optimum leaves no checkpoint.
+    let mut overwrite = args.to_vec();
+    overwrite.push("--overwrite");
+    let (ok, _, stderr) = ghm_with_stdout(&overwrite);
+    assert!(ok, "{stderr}");
+    assert!(!dir.join(ghm::job::optimum_checkpoint::FILE).exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -13,6 +13,7 @@
 
 pub mod build;
 pub mod folder;
+pub mod optimum_checkpoint;
 pub mod output;
 pub mod resume;
 mod season;

@@ -12,15 +12,15 @@ use crate::job::build::{
 };
 use crate::job::folder::{self, RunFolder};
 use crate::job::output::{figure, model_hash, plot_trajectory, write_summary, TrajectoryWriter};
-use crate::job::resume;
 use crate::job::spec::{
     ControllerSpec, CostForm, MpcSpec, OptimumSpec, PlantSpec, RlmpcSpec, RunSpec, SolverChoice,
     SolverSpec, Variant,
 };
 use crate::job::JobError;
+use crate::job::{optimum_checkpoint, resume};
 use crate::model::Plant;
 use crate::sim::metrics::Metrics;
-use crate::sim::optimum::season_optimum;
+use crate::sim::optimum::{resume_season_optimum, season_optimum};
 use crate::sim::season::{resume_season, run_season, SeasonConfig, StepLog, StepsTaken};
 use crate::sim::weather::Weather;
 use serde_json::json;
@@ -353,7 +353,7 @@ fn build(
             if let Some(out) = out {
                 folder::check(out, options.overwrite)?;
             }
-            let (table, extra) = solve_optimum(spec, optimum, plant, steps, options)?;
+            let (table, extra) = solve_optimum(spec, optimum, plant, (steps, out), options)?;
             built.controller = Box::new(table);
             built.extra = extra;
         }
@@ -432,12 +432,14 @@ fn build_rlmpc(
     Ok((mpc.with_guidance(Box::new(guidance)), horizon, extra))
 }
 
-/// The season optimum's inputs, from a closed loop of MPC refined as one NLP.
+/// The season optimum's inputs, from a closed loop of MPC (or the spec's inputs) refined as
+/// one NLP over `steps` steps. With a run folder `out`, the solve writes its checkpoints
+/// there and goes on from one a stopped run of the same spec left ([`optimum_checkpoint`]).
 fn solve_optimum(
     spec: &RunSpec,
     optimum: &OptimumSpec,
     plant: &Arc<Plant>,
-    steps: usize,
+    (steps, out): (usize, Option<&Path>),
     options: &JobOptions,
 ) -> Result<(InputTable, serde_json::Value), JobError> {
     let say = |line: String| {
@@ -451,7 +453,84 @@ fn solve_optimum(
         plant.model.sample_period,
     )?;
     let weather = spec.weather.load(&plant.model, steps, horizon)?;
-    let (inputs, initial_reward) = match &optimum.init_inputs {
+    let identity = (json!(spec), model_hash(plant));
+    let resumed = match out {
+        Some(out) if options.overwrite => optimum_checkpoint::remove(out).map(|()| None)?,
+        Some(out) => optimum_checkpoint::read(out, &identity.0, &identity.1)?,
+        None => None,
+    };
+    let mut solver = optimum.solver_spec(options.verbose).build()?;
+    if let Some(out) = out {
+        let (spec, hash) = identity;
+        solver.set_checkpoints(1, Some(optimum_checkpoint::sink(out, spec, hash)));
+    }
+    let clock = Instant::now();
+    if let Some(checkpoint) = &resumed {
+        say(format!(
+            "going on with the season NLP ({steps} stages) from its checkpoint after {} iterations",
+            checkpoint.iteration
+        ));
+    }
+    let (result, initial_reward) = match &resumed {
+        Some(checkpoint) => (
+            resume_season_optimum(plant.clone(), &weather, steps, checkpoint, solver.as_mut()),
+            None,
+        ),
+        None => {
+            let (inputs, initial_reward) =
+                optimum_start(optimum, plant, &weather, (horizon, steps), &say)?;
+            say(format!("solving the season as one NLP ({steps} stages)"));
+            (
+                season_optimum(plant.clone(), &weather, steps, &inputs, solver.as_mut()),
+                initial_reward,
+            )
+        }
+    };
+    let result = result.map_err(|e| JobError::Spec(e.to_string()))?;
+    let seconds = clock.elapsed().as_secs_f64();
+    let s = &result.solution;
+    let earlier = resumed.as_ref().map_or(0, |c| c.iteration);
+    say(format!(
+        "  {} after {} iterations in {seconds:.1} s (KKT residual {:.1e})",
+        s.status,
+        earlier + s.stats.iterations,
+        s.stats.kkt.max()
+    ));
+    if !s.status.is_success() {
+        eprintln!(
+            "warning: the season NLP did not converge ({}); the figures below are those of the best point found",
+            s.status
+        );
+    }
+    if let Some(out) = out {
+        optimum_checkpoint::remove(out)?;
+    }
+    let extra = json!({
+        "optimum": {
+            "solver": solver.name(),
+            "status": s.status,
+            "iterations": earlier + s.stats.iterations,
+            "resumed_after_iterations": resumed.as_ref().map(|c| c.iteration),
+            "time_s": seconds,
+            "kkt": s.stats.kkt,
+            "initial_horizon_steps": horizon,
+            "initial_cumulative_reward": initial_reward,
+            "initial_inputs": optimum.init_inputs,
+        }
+    });
+    Ok((InputTable(result.inputs.clone()), extra))
+}
+
+/// The inputs the season optimum starts from, and the cumulative reward of the closed loop
+/// that made them (none for the spec's own inputs).
+fn optimum_start(
+    optimum: &OptimumSpec,
+    plant: &Arc<Plant>,
+    weather: &Weather,
+    (horizon, steps): (usize, usize),
+    say: &impl Fn(String),
+) -> Result<(Vec<f64>, Option<f64>), JobError> {
+    Ok(match &optimum.init_inputs {
         Some(path) => {
             say(format!(
                 "initialising from the inputs in {}",
@@ -464,47 +543,14 @@ fn solve_optimum(
                 "initialising from a closed loop of MPC over {}",
                 optimum.init_horizon
             ));
-            let (inputs, reward) = closed_loop_inputs(plant, &weather, horizon, steps)?;
+            let (inputs, reward) = closed_loop_inputs(plant, weather, horizon, steps)?;
             say(format!(
                 "  closed loop: cumulative reward {reward:+.4} {}",
                 plant.model.objective_unit()
             ));
             (inputs, Some(reward))
         }
-    };
-
-    say(format!("solving the season as one NLP ({steps} stages)"));
-    let mut solver = optimum.solver_spec(options.verbose).build()?;
-    let clock = Instant::now();
-    let result = season_optimum(plant.clone(), &weather, steps, &inputs, solver.as_mut())
-        .map_err(|e| JobError::Spec(e.to_string()))?;
-    let seconds = clock.elapsed().as_secs_f64();
-    let s = &result.solution;
-    say(format!(
-        "  {} after {} iterations in {seconds:.1} s (KKT residual {:.1e})",
-        s.status,
-        s.stats.iterations,
-        s.stats.kkt.max()
-    ));
-    if !s.status.is_success() {
-        eprintln!(
-            "warning: the season NLP did not converge ({}); the figures below are those of the best point found",
-            s.status
-        );
-    }
-    let extra = json!({
-        "optimum": {
-            "solver": solver.name(),
-            "status": s.status,
-            "iterations": s.stats.iterations,
-            "time_s": seconds,
-            "kkt": s.stats.kkt,
-            "initial_horizon_steps": horizon,
-            "initial_cumulative_reward": initial_reward,
-            "initial_inputs": optimum.init_inputs,
-        }
-    });
-    Ok((InputTable(result.inputs.clone()), extra))
+    })
 }
 
 /// The inputs of a closed loop of MPC at `horizon` steps (SQP) over the season, and its

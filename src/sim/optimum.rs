@@ -6,7 +6,7 @@
 use crate::model::Plant;
 use crate::nlp::{Bands, Nlp, Ocp, OcpError};
 use crate::sim::weather::Weather;
-use crate::solve::{Solution, Solver, Start};
+use crate::solve::{Checkpoint, Solution, Solver, Start};
 use std::sync::Arc;
 use thiserror::Error;
 
@@ -37,6 +37,18 @@ pub enum OptimumError {
         nu: usize,
         /// `steps × nu`.
         expected: usize,
+    },
+    /// A checkpoint to resume from is not of this season's problem.
+    #[error(
+        "the checkpoint has {given} values; this season's problem has {variables} variables and {rows} rows"
+    )]
+    Checkpoint {
+        /// Values in the checkpoint (point, multipliers, bound multipliers).
+        given: usize,
+        /// Variables of the season's NLP.
+        variables: usize,
+        /// Rows of the season's NLP.
+        rows: usize,
     },
 }
 
@@ -117,20 +129,65 @@ pub fn season_optimum(
             expected: steps * nu,
         });
     }
+    let mut ocp = season_problem(&plant, weather, steps)?;
+    let mut start = vec![0.0; ocp.n_vars()];
+    ocp.rollout(initial_inputs, &mut start);
+    let solution = solver.solve(&mut ocp, Start::cold(&start));
+    Ok(SeasonOptimum::of(&ocp, solution, steps))
+}
+
+/// Goes on with the solve of [`season_optimum`] from where it stood at `checkpoint` (one
+/// its solver handed out, [`Solver::set_checkpoints`]), on the same season.
+pub fn resume_season_optimum(
+    plant: Arc<Plant>,
+    weather: &Weather,
+    steps: usize,
+    checkpoint: &Checkpoint,
+    solver: &mut dyn Solver,
+) -> Result<SeasonOptimum, OptimumError> {
+    let mut ocp = season_problem(&plant, weather, steps)?;
+    let (n, m) = (ocp.n_vars(), ocp.n_cons());
+    let sizes = [
+        checkpoint.x.len(),
+        checkpoint.multipliers.len(),
+        checkpoint.bound_multipliers.len(),
+    ];
+    if sizes != [n, m, n] {
+        return Err(OptimumError::Checkpoint {
+            given: sizes.iter().sum(),
+            variables: n,
+            rows: m,
+        });
+    }
+    let solution = solver.solve(&mut ocp, Start::resumed(checkpoint));
+    Ok(SeasonOptimum::of(&ocp, solution, steps))
+}
+
+/// The season-long problem: every step, from the model's initial state and start input,
+/// the soft bands at their scoring bounds.
+fn season_problem(
+    plant: &Arc<Plant>,
+    weather: &Weather,
+    steps: usize,
+) -> Result<Ocp, OptimumError> {
     let forecast = weather
         .horizon(0, steps)
         .ok_or(OptimumError::WeatherTooShort {
             available: weather.len(),
             needed: steps,
         })?;
-    let mut ocp = Ocp::with_bands(Arc::clone(&plant), steps, Bands::Scoring)?;
+    let mut ocp = Ocp::with_bands(Arc::clone(plant), steps, Bands::Scoring)?;
     let (x0, u0) = (plant.model.initial_state(), plant.model.start_input());
     ocp.set_problem(0, &x0, &u0, forecast)?;
-    let mut start = vec![0.0; ocp.n_vars()];
-    ocp.rollout(initial_inputs, &mut start);
-    let solution = solver.solve(&mut ocp, Start::cold(&start));
-    let inputs = (0..steps)
-        .map(|j| ocp.input(&solution.x, j).to_vec())
-        .collect();
-    Ok(SeasonOptimum { solution, inputs })
+    Ok(ocp)
+}
+
+impl SeasonOptimum {
+    /// `solution` of `ocp`, with the inputs of its `steps` steps.
+    fn of(ocp: &Ocp, solution: Solution, steps: usize) -> SeasonOptimum {
+        let inputs = (0..steps)
+            .map(|j| ocp.input(&solution.x, j).to_vec())
+            .collect();
+        SeasonOptimum { solution, inputs }
+    }
 }

@@ -218,7 +218,7 @@ impl Ipopt {
                 ("warm_start_init_point", Value::Str("yes")),
                 (
                     "mu_init",
-                    Value::Num(o.warm_start_mu_init * objective_scale),
+                    Value::Num(start.barrier.unwrap_or(o.warm_start_mu_init) * objective_scale),
                 ),
                 ("warm_start_bound_push", Value::Num(o.warm_start_push)),
                 ("warm_start_bound_frac", Value::Num(o.warm_start_push)),

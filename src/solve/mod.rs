@@ -38,7 +38,7 @@ pub use sqp::{Sqp, SqpOptions};
 pub use ipopt::{Ipopt, IpoptOptions};
 
 use crate::nlp::Nlp;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 crate::choice! {
     /// How a solve ended.
@@ -110,6 +110,9 @@ pub struct Start<'a> {
     /// interior-point start pushes it less far inside its bounds
     /// ([`IpmOptions::shifted_push`]) than a guess ([`IpmOptions::bound_push`]).
     pub shifted: bool,
+    /// The barrier parameter to go on from, with all multipliers: a solve resumed from
+    /// its own [`Checkpoint`]. `None`: the back-end's own for the kind of start.
+    pub barrier: Option<f64>,
 }
 
 impl<'a> Start<'a> {
@@ -120,6 +123,20 @@ impl<'a> Start<'a> {
             multipliers: None,
             bound_multipliers: None,
             shifted: false,
+            barrier: None,
+        }
+    }
+
+    /// Where an interrupted solve stood ([`Checkpoint`]): its point, multipliers and
+    /// barrier parameter. The interior point goes on from there under its monotone rule,
+    /// its point pushed inside its bounds as a warm start's; other back-ends start warm.
+    pub fn resumed(checkpoint: &'a Checkpoint) -> Start<'a> {
+        Start {
+            x: &checkpoint.x,
+            multipliers: Some(&checkpoint.multipliers),
+            bound_multipliers: Some(&checkpoint.bound_multipliers),
+            shifted: false,
+            barrier: Some(checkpoint.barrier),
         }
     }
 
@@ -153,9 +170,29 @@ impl<'a> Start<'a> {
             multipliers: Some(multipliers),
             bound_multipliers: Some(bound_multipliers),
             shifted: true,
+            barrier: None,
         }
     }
 }
+
+/// Where a solve stood after some iteration, in the problem's own units: enough to go on
+/// from there ([`Start::resumed`]) when a long solve (a season's optimum) is stopped.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Checkpoint {
+    /// Iterations done.
+    pub iteration: usize,
+    /// The primal point.
+    pub x: Vec<f64>,
+    /// Constraint multipliers `λ`.
+    pub multipliers: Vec<f64>,
+    /// Bound multipliers `ν`.
+    pub bound_multipliers: Vec<f64>,
+    /// The barrier parameter.
+    pub barrier: f64,
+}
+
+/// Where a back-end hands its [`Checkpoint`]s.
+pub type CheckpointSink = Box<dyn FnMut(&Checkpoint) + Send>;
 
 /// A back-end that solves an [`Nlp`].
 pub trait Solver {
@@ -182,5 +219,10 @@ pub trait Solver {
     /// [`WarmStart`](crate::control::WarmStart) defaults to.
     fn restarts_from_multipliers(&self) -> bool {
         true
+    }
+    /// Hands a [`Checkpoint`] to `sink` every `every` iterations of the following solves
+    /// (`None`: no more). True where the back-end can ([`Ipm`]); the others ignore it.
+    fn set_checkpoints(&mut self, _every: usize, _sink: Option<CheckpointSink>) -> bool {
+        false
     }
 }

@@ -187,7 +187,7 @@ impl StartKind {
             warm,
             close: start.shifted && start.multipliers.is_some() && !warm,
             mu: if warm {
-                options.warm_start_mu * objective_scale
+                start.barrier.unwrap_or(options.warm_start_mu) * objective_scale
             } else {
                 options.initial_mu
             },

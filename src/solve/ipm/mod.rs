@@ -80,7 +80,7 @@ pub use options::{IpmOptions, MuStrategy};
 use super::scaled_objective::solve_scaled;
 use super::solution_builder::{Ending, SolutionBuilder};
 use super::termination::Termination;
-use super::{Solution, SolveStatus, Solver, Start};
+use super::{CheckpointSink, Solution, SolveStatus, Solver, Start};
 use crate::nlp::Nlp;
 use barrier::{average_complementarity, Barrier};
 use filter::Accepted;
@@ -101,6 +101,9 @@ pub struct Ipm {
     corrections: usize,
     /// Feasibility restorations made by the last solve.
     restorations: usize,
+    /// Every how many iterations a checkpoint goes to `checkpoint_sink` (0: never).
+    checkpoint_every: usize,
+    checkpoint_sink: Option<CheckpointSink>,
 }
 
 impl Default for Ipm {
@@ -119,6 +122,8 @@ impl Ipm {
             workspace: None,
             corrections: 0,
             restorations: 0,
+            checkpoint_every: 0,
+            checkpoint_sink: None,
         }
     }
 
@@ -163,6 +168,12 @@ impl Solver for Ipm {
     /// No: the shifted primal point with a fresh barrier (MPC's `primal` restart).
     fn restarts_from_multipliers(&self) -> bool {
         false
+    }
+
+    fn set_checkpoints(&mut self, every: usize, sink: Option<CheckpointSink>) -> bool {
+        self.checkpoint_every = if sink.is_some() { every } else { 0 };
+        self.checkpoint_sink = sink;
+        true
     }
 
     fn solve(&mut self, nlp: &mut dyn Nlp, start: Start<'_>) -> Solution {
@@ -250,6 +261,12 @@ impl Ipm {
             };
             if let Some(status) = termination.check(e_own, iteration, false) {
                 return (status, iteration, ws.ev.f);
+            }
+            if self.checkpoint_every > 0 && iteration > 0 && iteration % self.checkpoint_every == 0
+            {
+                if let Some(sink) = self.checkpoint_sink.as_mut() {
+                    sink(&ws.checkpoint(iteration, barrier.mu(), objective_scale));
+                }
             }
             update_barrier(ws, &mut barrier, e0);
             let theta = ws.problem.violation(&ws.ev.c, &ws.it.t);

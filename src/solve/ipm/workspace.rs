@@ -6,7 +6,7 @@
 use super::super::error::SetupError;
 use super::super::kkt::{residuals_of, PointInfo};
 use super::super::solution_builder::Ending;
-use super::super::{KktResiduals, SolveStatus, Start};
+use super::super::{Checkpoint, KktResiduals, SolveStatus, Start};
 use super::iterate::{Eval, Iterate, StartKind};
 use super::kkt_system::KktSystem;
 use super::line_search::LineSearch;
@@ -99,6 +99,36 @@ impl Workspace {
             .restore(nlp, &self.problem, &mut self.it, kappa, theta_phi)
     }
 
+    /// Where the solve stands after `iteration` iterations at barrier `mu`, in the units
+    /// of the problem whose objective was scaled by `objective_scale`.
+    pub fn checkpoint(&self, iteration: usize, mu: f64, objective_scale: f64) -> Checkpoint {
+        let it = &self.it;
+        Checkpoint {
+            iteration,
+            x: self.point(),
+            multipliers: it.lambda.iter().map(|l| l / objective_scale).collect(),
+            bound_multipliers: self
+                .bound_multipliers()
+                .iter()
+                .map(|v| v / objective_scale)
+                .collect(),
+            barrier: mu / objective_scale,
+        }
+    }
+
+    /// The iterate's point, the relaxed bounds of fixed variables back onto the true ones.
+    fn point(&self) -> Vec<f64> {
+        let (it, bounds) = (&self.it, &self.problem.bounds);
+        (0..self.n)
+            .map(|i| it.w[i].max(bounds.x_lower[i]).min(bounds.x_upper[i]))
+            .collect()
+    }
+
+    /// The iterate's bound multipliers `ν = z_U − z_L`.
+    fn bound_multipliers(&self) -> Vec<f64> {
+        (0..self.n).map(|i| self.it.zu[i] - self.it.zl[i]).collect()
+    }
+
     /// The solution in ghm's conventions from the iterate, with its objective and KKT
     /// residuals evaluated on the original bounds (where the status says the problem could
     /// be evaluated): the point, `λ`, `ν` and how the solve ended.
@@ -109,13 +139,10 @@ impl Workspace {
         iterations: usize,
         objective: f64,
     ) -> (Vec<f64>, Vec<f64>, Vec<f64>, Ending) {
-        let (it, bounds) = (&self.it, &self.problem.bounds);
-        // The relaxed bounds of fixed variables: back onto the true bounds.
-        let x: Vec<f64> = (0..self.n)
-            .map(|i| it.w[i].max(bounds.x_lower[i]).min(bounds.x_upper[i]))
-            .collect();
-        let nu: Vec<f64> = (0..self.n).map(|i| it.zu[i] - it.zl[i]).collect();
-        let lambda = it.lambda.clone();
+        let x = self.point();
+        let nu = self.bound_multipliers();
+        let lambda = self.it.lambda.clone();
+        let bounds = &self.problem.bounds;
         let mut kkt = KktResiduals::default();
         let mut objective = objective;
         if status != SolveStatus::InvalidNumber && x.iter().all(|v| v.is_finite()) {
