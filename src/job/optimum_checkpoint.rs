@@ -63,9 +63,14 @@ pub fn read(
     Ok(Some(saved.checkpoint))
 }
 
-/// A sink that writes the checkpoints of `spec` into `out`, at most once a minute. One that
-/// cannot be written is a warning: the solve goes on.
-pub fn sink(out: &Path, spec: serde_json::Value, model_hash: String) -> CheckpointSink {
+/// A sink that writes the checkpoints of `spec` into `out`, at most once a minute, counting
+/// the `iterations_before` of the stopped runs it goes on from. One that cannot be written
+/// is a warning: the solve goes on.
+pub fn sink(
+    out: &Path,
+    (spec, model_hash): (serde_json::Value, String),
+    iterations_before: usize,
+) -> CheckpointSink {
     let (out, mut last) = (out.to_path_buf(), Instant::now());
     Box::new(move |checkpoint: &Checkpoint| {
         if last.elapsed() < INTERVAL {
@@ -75,7 +80,10 @@ pub fn sink(out: &Path, spec: serde_json::Value, model_hash: String) -> Checkpoi
         let saved = Saved {
             spec: spec.clone(),
             model_hash: model_hash.clone(),
-            checkpoint: checkpoint.clone(),
+            checkpoint: Checkpoint {
+                iteration: iterations_before + checkpoint.iteration,
+                ..checkpoint.clone()
+            },
         };
         if let Err(e) = write(&out, &saved) {
             eprintln!("warning: {e}; the solve goes on without it");

@@ -459,10 +459,11 @@ fn solve_optimum(
         Some(out) => optimum_checkpoint::read(out, &identity.0, &identity.1)?,
         None => None,
     };
+    let earlier = resumed.as_ref().map_or(0, |c| c.iteration);
     let mut solver = optimum.solver_spec(options.verbose).build()?;
     if let Some(out) = out {
-        let (spec, hash) = identity;
-        solver.set_checkpoints(1, Some(optimum_checkpoint::sink(out, spec, hash)));
+        let sink = optimum_checkpoint::sink(out, identity, earlier);
+        solver.set_checkpoints(1, Some(sink));
     }
     let clock = Instant::now();
     if let Some(checkpoint) = &resumed {
@@ -489,7 +490,6 @@ fn solve_optimum(
     let result = result.map_err(|e| JobError::Spec(e.to_string()))?;
     let seconds = clock.elapsed().as_secs_f64();
     let s = &result.solution;
-    let earlier = resumed.as_ref().map_or(0, |c| c.iteration);
     say(format!(
         "  {} after {} iterations in {seconds:.1} s (KKT residual {:.1e})",
         s.status,
