@@ -217,20 +217,23 @@ fn optimum_command_reports_the_optimum_sqp_finds() {
 #[test]
 fn a_season_optimum_resumed_from_a_checkpoint_reaches_the_same_optimum() {
     use ghm::sim::optimum::resume_season_optimum;
-    use ghm::solve::{Checkpoint, Ipm, Solver};
+    use ghm::solve::{Checkpoint, CheckpointSink, Ipm, Solver};
     use std::sync::Mutex;
     let (plant, weather) = setup();
     let (_, inputs) = mpc(&plant, &weather, 2);
+    /// Keeps a checkpoint every fifth iteration.
+    struct EveryFifth(Arc<Mutex<Vec<Checkpoint>>>);
+    impl CheckpointSink for EveryFifth {
+        fn wants(&mut self, iteration: usize) -> bool {
+            iteration % 5 == 0
+        }
+        fn keep(&mut self, checkpoint: &Checkpoint) {
+            self.0.lock().unwrap().push(checkpoint.clone());
+        }
+    }
     let kept: Arc<Mutex<Vec<Checkpoint>>> = Arc::default();
     let mut ipm = Ipm::default();
-    let sink = Arc::clone(&kept);
-    assert!(ipm.set_checkpoints(
-        5,
-        Some(Box::new(move |c: &Checkpoint| sink
-            .lock()
-            .unwrap()
-            .push(c.clone())))
-    ));
+    assert!(ipm.set_checkpoints(Some(Box::new(EveryFifth(Arc::clone(&kept))))));
     let whole = season_optimum(plant.clone(), &weather, STEPS, &inputs, &mut ipm).unwrap();
     assert!(whole.solution.status.is_success());
     let checkpoints = kept.lock().unwrap().clone();

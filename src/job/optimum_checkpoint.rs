@@ -70,25 +70,45 @@ pub fn sink(
     out: &Path,
     (spec, model_hash): (serde_json::Value, String),
     iterations_before: usize,
-) -> CheckpointSink {
-    let (out, mut last) = (out.to_path_buf(), Instant::now());
-    Box::new(move |checkpoint: &Checkpoint| {
-        if last.elapsed() < INTERVAL {
-            return;
-        }
-        last = Instant::now();
+) -> Box<dyn CheckpointSink> {
+    Box::new(Writer {
+        out: out.to_path_buf(),
+        spec,
+        model_hash,
+        iterations_before,
+        last: Instant::now(),
+    })
+}
+
+/// [`sink`]'s writer.
+struct Writer {
+    out: PathBuf,
+    spec: serde_json::Value,
+    model_hash: String,
+    iterations_before: usize,
+    /// When the last checkpoint was written (or the solve began).
+    last: Instant,
+}
+
+impl CheckpointSink for Writer {
+    fn wants(&mut self, _iteration: usize) -> bool {
+        self.last.elapsed() >= INTERVAL
+    }
+
+    fn keep(&mut self, checkpoint: &Checkpoint) {
+        self.last = Instant::now();
         let saved = Saved {
-            spec: spec.clone(),
-            model_hash: model_hash.clone(),
+            spec: self.spec.clone(),
+            model_hash: self.model_hash.clone(),
             checkpoint: Checkpoint {
-                iteration: iterations_before + checkpoint.iteration,
+                iteration: self.iterations_before + checkpoint.iteration,
                 ..checkpoint.clone()
             },
         };
-        if let Err(e) = write(&out, &saved) {
+        if let Err(e) = write(&self.out, &saved) {
             eprintln!("warning: {e}; the solve goes on without it");
         }
-    })
+    }
 }
 
 /// Writes `saved` into `out` (made if missing), atomically.

@@ -463,7 +463,7 @@ fn solve_optimum(
     let mut solver = optimum.solver_spec(options.verbose).build()?;
     if let Some(out) = out {
         let sink = optimum_checkpoint::sink(out, identity, earlier);
-        solver.set_checkpoints(1, Some(sink));
+        solver.set_checkpoints(Some(sink));
     }
     let clock = Instant::now();
     if let Some(checkpoint) = &resumed {

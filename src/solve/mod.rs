@@ -191,8 +191,14 @@ pub struct Checkpoint {
     pub barrier: f64,
 }
 
-/// Where a back-end hands its [`Checkpoint`]s.
-pub type CheckpointSink = Box<dyn FnMut(&Checkpoint) + Send>;
+/// Where a back-end hands its [`Checkpoint`]s, and when: asked each iteration whether it
+/// wants one, so that a back-end makes one only when it is kept.
+pub trait CheckpointSink: Send {
+    /// Whether a checkpoint after `iteration` iterations is wanted.
+    fn wants(&mut self, iteration: usize) -> bool;
+    /// Keeps the checkpoint it wanted.
+    fn keep(&mut self, checkpoint: &Checkpoint);
+}
 
 /// A back-end that solves an [`Nlp`].
 pub trait Solver {
@@ -220,9 +226,10 @@ pub trait Solver {
     fn restarts_from_multipliers(&self) -> bool {
         true
     }
-    /// Hands a [`Checkpoint`] to `sink` every `every` iterations of the following solves
-    /// (`None`: no more). True where the back-end can ([`Ipm`]); the others ignore it.
-    fn set_checkpoints(&mut self, _every: usize, _sink: Option<CheckpointSink>) -> bool {
+    /// Hands a [`Checkpoint`] to `sink` after each iteration of the following solves that
+    /// it wants one (`None`: no more). True where the back-end can ([`Ipm`]); the others
+    /// ignore it.
+    fn set_checkpoints(&mut self, _sink: Option<Box<dyn CheckpointSink>>) -> bool {
         false
     }
 }

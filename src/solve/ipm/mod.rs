@@ -101,9 +101,8 @@ pub struct Ipm {
     corrections: usize,
     /// Feasibility restorations made by the last solve.
     restorations: usize,
-    /// Every how many iterations a checkpoint goes to `checkpoint_sink` (0: never).
-    checkpoint_every: usize,
-    checkpoint_sink: Option<CheckpointSink>,
+    /// Where checkpoints go, when it wants one.
+    checkpoint_sink: Option<Box<dyn CheckpointSink>>,
 }
 
 impl Default for Ipm {
@@ -122,7 +121,6 @@ impl Ipm {
             workspace: None,
             corrections: 0,
             restorations: 0,
-            checkpoint_every: 0,
             checkpoint_sink: None,
         }
     }
@@ -170,8 +168,7 @@ impl Solver for Ipm {
         false
     }
 
-    fn set_checkpoints(&mut self, every: usize, sink: Option<CheckpointSink>) -> bool {
-        self.checkpoint_every = if sink.is_some() { every } else { 0 };
+    fn set_checkpoints(&mut self, sink: Option<Box<dyn CheckpointSink>>) -> bool {
         self.checkpoint_sink = sink;
         true
     }
@@ -262,10 +259,9 @@ impl Ipm {
             if let Some(status) = termination.check(e_own, iteration, false) {
                 return (status, iteration, ws.ev.f);
             }
-            if self.checkpoint_every > 0 && iteration > 0 && iteration % self.checkpoint_every == 0
-            {
-                if let Some(sink) = self.checkpoint_sink.as_mut() {
-                    sink(&ws.checkpoint(iteration, barrier.mu(), objective_scale));
+            if let Some(sink) = self.checkpoint_sink.as_mut() {
+                if iteration > 0 && sink.wants(iteration) {
+                    sink.keep(&ws.checkpoint(iteration, barrier.mu(), objective_scale));
                 }
             }
             update_barrier(ws, &mut barrier, e0);
