@@ -399,6 +399,7 @@ fn train_checkpoints_resumes_and_ships_a_policy_that_policy_runs() {
     let short = ["--days", "0.5", "--warmup", "1", "--checkpoint-every", "1"];
     let mut args = vec!["train", "models/lettuce.ghm", "--episodes", "2", "--out", d];
     args.extend(short);
+    args.extend(["--gamma", "0.99", "--batch-size", "64"]);
     let (ok, out, err) = ghm(&args);
     assert!(ok, "{err}");
     assert!(out.contains("episode   2: reward"), "{out}");
@@ -414,6 +415,21 @@ fn train_checkpoints_resumes_and_ships_a_policy_that_policy_runs() {
     resume.extend(short);
     let (ok, out, err) = ghm(&resume);
     assert!(ok && out.contains("resuming"), "{out}{err}");
+    // The checkpoint keeps the discount and the batch it was trained with.
+    for (option, value) in [("--gamma", "0.9"), ("--batch-size", "128")] {
+        let mut other = resume.clone();
+        other.extend([option, value]);
+        let (ok, _, err) = ghm(&other);
+        assert!(
+            !ok && err.contains(&format!("{option} {value} conflicts")),
+            "{err}"
+        );
+    }
+    let (ok, _, err) = ghm(&["train", "models/lettuce.ghm", "--gamma", "1.5"]);
+    assert!(
+        !ok && err.contains("gamma") && err.contains("(0, 1]"),
+        "{err}"
+    );
     let season = temp_dir("policy");
     let s = season.to_str().expect("utf-8 temp path");
     let (ok, out, err) = ghm(&[

@@ -273,6 +273,10 @@ struct Chain {
     goal: f64,
     floor: Option<f64>,
     nan: bool,
+    /// The Hessian evaluation (counted from 0) that comes back NaN, as an implicit step's
+    /// derivatives at the edge of its Newton's reach do.
+    nan_hessian_at: Option<usize>,
+    hessian_evaluations: usize,
     staged: bool,
     objective_scale: f64,
     jacobian: Pattern,
@@ -286,6 +290,8 @@ impl Chain {
             goal,
             floor: None,
             nan: false,
+            nan_hessian_at: None,
+            hessian_evaluations: 0,
             staged: true,
             objective_scale: 1.0,
             jacobian: Pattern::default(),
@@ -379,8 +385,13 @@ impl Nlp for Chain {
         &self.hessian
     }
     fn hessian_values(&mut self, _: &[f64], sigma: f64, _: &[f64], values: &mut [f64]) {
+        let nan = self.nan_hessian_at == Some(self.hessian_evaluations);
+        self.hessian_evaluations += 1;
         for (v, value) in values.iter_mut().enumerate() {
             *value = sigma * if v % 2 == 1 { 2.0 } else { 2.0 * Self::RHO };
+        }
+        if nan {
+            values[0] = f64::NAN;
         }
     }
     fn objective_scaling(&self) -> f64 {
@@ -402,6 +413,28 @@ fn solve(chain: &mut Chain, options: IpmOptions, limit: Option<usize>) -> ghm::s
     ipm.set_iteration_limit(limit);
     let start = vec![0.0; chain.n_vars()];
     ipm.solve(chain, Start::cold(&start))
+}
+
+#[test]
+fn a_point_whose_derivatives_are_not_finite_is_stepped_back_from() {
+    let mut plain = Chain::new(5, 3.0);
+    let expected = solve(&mut plain, IpmOptions::default(), None);
+    assert_eq!(expected.status, SolveStatus::Optimal);
+    // The derivatives at the first accepted point are not finite: the solve goes back to
+    // its start, takes half the step, and ends where the plain solve does.
+    let mut chain = Chain::new(5, 3.0);
+    chain.nan_hessian_at = Some(1);
+    let solution = solve(&mut chain, IpmOptions::default(), None);
+    assert_eq!(solution.status, SolveStatus::Optimal);
+    assert!(solution.stats.iterations > expected.stats.iterations);
+    for (a, b) in solution.x.iter().zip(&expected.x) {
+        assert!((a - b).abs() < 1e-6, "{:?} vs {:?}", solution.x, expected.x);
+    }
+    // At the start there is no step to go back from.
+    let mut chain = Chain::new(5, 3.0);
+    chain.nan_hessian_at = Some(0);
+    let solution = solve(&mut chain, IpmOptions::default(), None);
+    assert_eq!(solution.status, SolveStatus::InvalidNumber);
 }
 
 #[test]

@@ -66,6 +66,8 @@ struct Agents {
     warmup: usize,
     seed: u64,
     checkpoint_every: usize,
+    gamma: f64,
+    batch_size: usize,
     /// The stochastic scenarios' agents (and value networks) are trained on the perturbed
     /// plant (the scenarios' δ); otherwise every scenario uses the nominal plant's.
     stochastic: bool,
@@ -84,6 +86,8 @@ impl Default for Agents {
             warmup: train.warmup,
             seed: train.seed,
             checkpoint_every: train.checkpoint_every,
+            gamma: train.gamma,
+            batch_size: train.batch_size,
             stochastic: true,
             trajectories: value.trajectories,
             spread: value.spread,
@@ -502,6 +506,8 @@ impl OwnAgents<'_> {
                 episodes: agents.episodes,
                 warmup: agents.warmup,
                 checkpoint_every: agents.checkpoint_every,
+                gamma: agents.gamma,
+                batch_size: agents.batch_size,
             };
             jobs.push(job(
                 Work::Train(spec),

@@ -89,6 +89,10 @@ use line_search::SearchFrom;
 use newton::Newton;
 use workspace::Workspace;
 
+/// The shortest step taken back from a point whose derivatives are not finite; below it
+/// the solve ends `invalid_number`.
+const MIN_STEP_BACK: f64 = 1e-12;
+
 /// The pure-Rust structure-exploiting interior-point back-end.
 pub struct Ipm {
     /// Its tuning; may be changed between solves.
@@ -243,9 +247,26 @@ impl Ipm {
         let mut barrier = Barrier::new(&opts, (kind.mu, objective_scale), kind.warm, || {
             average_complementarity(&ws.problem, &ws.it, None)
         });
+        // The longest step the next line search may take: half the last one where that
+        // led to a point whose derivatives are not finite.
+        let mut step_cap;
         for iteration in 0..=max_iterations {
-            if !ws.ev.evaluate(nlp, &ws.it) {
-                return (SolveStatus::InvalidNumber, iteration, ws.ev.f);
+            if ws.ev.evaluate(nlp, &ws.it) {
+                step_cap = f64::INFINITY;
+            } else {
+                // A step accepted on its values whose derivatives are not finite (an
+                // implicit step at the edge of its Newton's reach): back to the point
+                // before, a step half as long; IPOPT cuts back on evaluation errors alike.
+                let Some(alpha) = ws.step_back().filter(|&a| a > MIN_STEP_BACK) else {
+                    return (SolveStatus::InvalidNumber, iteration, ws.ev.f);
+                };
+                if opts.trace {
+                    eprintln!("ipm {iteration:3} derivatives not finite after α {alpha:.2e}: back");
+                }
+                step_cap = alpha / 2.0;
+                if !ws.ev.evaluate(nlp, &ws.it) {
+                    return (SolveStatus::InvalidNumber, iteration, ws.ev.f);
+                }
             }
             // The barrier follows the error of the problem as solved; the solve ends on the
             // error in the problem's own units, so that a scaled objective is solved to the
@@ -281,6 +302,7 @@ impl Ipm {
             let Some(alpha_max) = newton_step(ws, &mut barrier, theta, corrected > 0) else {
                 return (SolveStatus::NumericalError, iteration, ws.ev.f);
             };
+            let alpha_max = alpha_max.min(step_cap);
             let mu = barrier.mu();
             let phi = ws.problem.barrier(ws.ev.f, &ws.it.w, &ws.it.t, mu);
             let Some((accepted, alpha)) = search(ws, nlp, (mu, theta, phi), alpha_max, opts.trace)
@@ -310,11 +332,8 @@ impl Ipm {
                     if barrier.is_free() { " free" } else { "" }
                 );
             }
-            let d = &ws.directions.step;
-            let alpha_dual = ws.it.dual_reach(d, (1.0 - mu).max(0.99));
-            let trial = &ws.line_search.trial;
-            ws.it
-                .take_step(&mut ws.problem, trial, d, alpha, alpha_dual, mu);
+            let alpha_dual = ws.it.dual_reach(&ws.directions.step, (1.0 - mu).max(0.99));
+            ws.take_step(alpha, alpha_dual, mu);
         }
         // The last iteration returns inside the loop; this is for the type checker.
         (SolveStatus::MaxIterations, max_iterations, f64::NAN)

@@ -34,6 +34,11 @@ pub(super) struct Workspace {
     /// One entry per variable, for the optimality error.
     pub scratch: Vec<f64>,
     pub line_search: LineSearch,
+    /// The iterate before the last line-search step, and that step's length: where to go
+    /// back to when the derivatives at the accepted point are not finite
+    /// ([`Workspace::step_back`]). `None` after a start or a restoration.
+    before_step: Iterate,
+    last_step: Option<f64>,
 }
 
 impl Workspace {
@@ -57,6 +62,8 @@ impl Workspace {
             directions: Directions::zeros(n, m),
             scratch: vec![0.0; n],
             line_search: LineSearch::new(n, m),
+            before_step: Iterate::zeros(n, m),
+            last_step: None,
             kkt,
             jacobian,
             hessian,
@@ -86,6 +93,7 @@ impl Workspace {
         self.line_search.start_solve(max_iterations);
         self.ev.clear();
         self.directions.clear();
+        self.last_step = None;
         let nu = &mut self.start_bound_multipliers;
         self.it
             .start(nlp, &self.problem, start, kind, nu, &mut self.ev.c)
@@ -95,8 +103,28 @@ impl Workspace {
     /// ([`LineSearch::restore`]); `(θ, φ)` of the iterate join the filter where it
     /// succeeds.
     pub fn restore(&mut self, nlp: &mut dyn Nlp, kappa: f64, theta_phi: (f64, f64)) -> bool {
+        self.last_step = None;
         self.line_search
             .restore(nlp, &self.problem, &mut self.it, kappa, theta_phi)
+    }
+
+    /// Takes the line search's step of length `alpha` (primal) and `alpha_dual` (bound
+    /// multipliers) at barrier `mu`, keeping the iterate before it.
+    pub fn take_step(&mut self, alpha: f64, alpha_dual: f64, mu: f64) {
+        self.before_step.clone_from(&self.it);
+        self.last_step = Some(alpha);
+        let d = &self.directions.step;
+        let trial = &self.line_search.trial;
+        self.it
+            .take_step(&mut self.problem, trial, d, alpha, alpha_dual, mu);
+    }
+
+    /// Back to the iterate before the last step, whose length it returns; `None` where the
+    /// iterate did not come from a step (a start, a restoration, a step taken back).
+    pub fn step_back(&mut self) -> Option<f64> {
+        let alpha = self.last_step.take()?;
+        std::mem::swap(&mut self.it, &mut self.before_step);
+        Some(alpha)
     }
 
     /// Where the solve stands after `iteration` iterations at barrier `mu`, in the units
