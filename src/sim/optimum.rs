@@ -132,7 +132,10 @@ pub fn season_optimum(
     let mut ocp = season_problem(&plant, weather, steps)?;
     let mut start = vec![0.0; ocp.n_vars()];
     ocp.rollout(initial_inputs, &mut start);
-    let solution = solver.solve(&mut ocp, Start::cold(&start));
+    // A roll-out of a controller's inputs is a plan close to the solution, as a shifted
+    // one is: pushed less far inside its bounds, its states stay nearer a stiff plant's
+    // dynamics (docs/benchmarks.md, "The GreenLight season optimum").
+    let solution = solver.solve(&mut ocp, Start::shifted(&start));
     Ok(SeasonOptimum::of(&ocp, solution, steps))
 }
 
