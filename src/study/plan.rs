@@ -750,6 +750,8 @@ mod tests {
             [agents]
             episodes = 3
             warmup = 1
+            gamma = 0.99
+            batch_size = 64
             [[controllers]]
             name = "SAC"
             kind = "policy"
@@ -785,6 +787,11 @@ mod tests {
             panic!("{:?}", jobs[1].work);
         };
         assert!(train.stochastic && train.uncertainty == 0.05 && train.episodes == 3);
+        assert_eq!((train.gamma, train.batch_size), (0.99, 64));
+        assert_eq!(
+            (train.config().gamma, train.config().batch_size),
+            (0.99, 64)
+        );
         let Work::Value(value) = &jobs[4].work else {
             panic!("{:?}", jobs[4].work);
         };
