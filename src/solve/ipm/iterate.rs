@@ -213,6 +213,18 @@ fn copy_or_zero(destination: &mut [f64], source: Option<&[f64]>) {
 }
 
 impl Iterate {
+    /// Copies `other` into this iterate's buffers (of the same sizes), allocating nothing
+    /// (a derived `clone_from` would allocate anew).
+    pub fn copy_from(&mut self, other: &Iterate) {
+        self.w.copy_from_slice(&other.w);
+        self.t.copy_from_slice(&other.t);
+        self.lambda.copy_from_slice(&other.lambda);
+        self.zl.copy_from_slice(&other.zl);
+        self.zu.copy_from_slice(&other.zu);
+        self.vl.copy_from_slice(&other.vl);
+        self.vu.copy_from_slice(&other.vu);
+    }
+
     /// Zeros for `n` variables and `m` rows.
     pub fn zeros(n: usize, m: usize) -> Iterate {
         let Direction {

@@ -111,7 +111,7 @@ impl Workspace {
     /// Takes the line search's step of length `alpha` (primal) and `alpha_dual` (bound
     /// multipliers) at barrier `mu`, keeping the iterate before it.
     pub fn take_step(&mut self, alpha: f64, alpha_dual: f64, mu: f64) {
-        self.before_step.clone_from(&self.it);
+        self.before_step.copy_from(&self.it);
         self.last_step = Some(alpha);
         let d = &self.directions.step;
         let trial = &self.line_search.trial;
