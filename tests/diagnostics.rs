@@ -338,13 +338,13 @@ uncertainty redraw = daily, spread = 0, parameters = all
 
 bad!(
     bad_solver_setting,
-    3,
+    4,
     r#"
 sample 30 [min]
 state temp [°C] = 15
 der temp = -temp / 3e4
 solver objective_scale = 0, objective_scale = big
-solver state_scale = 10
+solver state_scale = 10, rollout_push = 1
 "#
 );
 

@@ -275,3 +275,23 @@ fn the_last_objective_scale_is_the_one_every_solver_is_asked_for() {
     let ocp = Ocp::new(plant, 3).unwrap();
     assert_eq!(ocp.objective_scaling(), 1000.0);
 }
+
+#[test]
+fn a_rollout_push_is_a_number_between_0_and_half_a_bound() {
+    let text = "state x = 1\ninput u in [0, 1]\nder x = -x + u\nsample 60\ncost c = u\n";
+    assert_eq!(loads(text).solver.rollout_push, None);
+    let pushed = loads(&format!(
+        "{text}solver objective_scale = 10, rollout_push = 1e-4\n"
+    ));
+    assert_eq!(pushed.solver.rollout_push, Some(1e-4));
+    assert_eq!(pushed.solver.objective_scale, 10.0);
+    for bad in ["0", "0.5", "2"] {
+        let failure = ghm::lang::load_str("m.ghm", &format!("{text}solver rollout_push = {bad}\n"))
+            .expect_err(bad)
+            .render();
+        assert!(
+            failure.contains("E030") && failure.contains("between 0 and 0.5"),
+            "{failure}"
+        );
+    }
+}

@@ -200,12 +200,18 @@ pub struct SolverHints {
     /// against the constraints in the interior point's steps and line search. The
     /// solutions, multipliers and objective the solvers return are in the model's own units.
     pub objective_scale: f64,
+    /// How far the interior point pushes a roll-out of inputs (the season optimum's start
+    /// from a controller's inputs) inside its bounds, relative to each bound's size
+    /// (`rollout_push`; `None`: a shifted plan's push). A stiff plant wants it small: the
+    /// pushed inputs move the rolled-out states off its dynamics, and far off.
+    pub rollout_push: Option<f64>,
 }
 
 impl Default for SolverHints {
     fn default() -> Self {
         SolverHints {
             objective_scale: 1.0,
+            rollout_push: None,
         }
     }
 }

@@ -132,10 +132,8 @@ pub fn season_optimum(
     let mut ocp = season_problem(&plant, weather, steps)?;
     let mut start = vec![0.0; ocp.n_vars()];
     ocp.rollout(initial_inputs, &mut start);
-    // A roll-out of a controller's inputs is a plan close to the solution, as a shifted
-    // one is: pushed less far inside its bounds, its states stay nearer a stiff plant's
-    // dynamics (docs/benchmarks.md, "The GreenLight season optimum").
-    let solution = solver.solve(&mut ocp, Start::shifted(&start));
+    let push = plant.model.solver.rollout_push;
+    let solution = solver.solve(&mut ocp, Start::rollout(&start, push));
     Ok(SeasonOptimum::of(&ocp, solution, steps))
 }
 

@@ -110,6 +110,11 @@ pub struct Start<'a> {
     /// interior-point start pushes it less far inside its bounds
     /// ([`IpmOptions::shifted_push`]) than a guess ([`IpmOptions::bound_push`]).
     pub shifted: bool,
+    /// How far the interior point pushes `x` inside its bounds, relative to each bound's
+    /// size, where the start has no multipliers; `None`: its own for the kind of start
+    /// ([`IpmOptions::bound_push`], [`IpmOptions::shifted_push`]). A roll-out of a stiff
+    /// plant's inputs wants a small push (a model's `solver rollout_push`).
+    pub push: Option<f64>,
     /// The barrier parameter to go on from, with all multipliers: a solve resumed from
     /// its own [`Checkpoint`]. `None`: the back-end's own for the kind of start.
     pub barrier: Option<f64>,
@@ -123,7 +128,19 @@ impl<'a> Start<'a> {
             multipliers: None,
             bound_multipliers: None,
             shifted: false,
+            push: None,
             barrier: None,
+        }
+    }
+
+    /// A roll-out of inputs through the dynamics, without multipliers (the season
+    /// optimum's start from a controller's inputs): pushed inside its bounds as a shifted
+    /// plan is, or by `push` where given.
+    pub fn rollout(x: &'a [f64], push: Option<f64>) -> Start<'a> {
+        Start {
+            shifted: true,
+            push,
+            ..Start::cold(x)
         }
     }
 
@@ -136,6 +153,7 @@ impl<'a> Start<'a> {
             multipliers: Some(&checkpoint.multipliers),
             bound_multipliers: Some(&checkpoint.bound_multipliers),
             shifted: false,
+            push: None,
             barrier: Some(checkpoint.barrier),
         }
     }
@@ -170,6 +188,7 @@ impl<'a> Start<'a> {
             multipliers: Some(multipliers),
             bound_multipliers: Some(bound_multipliers),
             shifted: true,
+            push: None,
             barrier: None,
         }
     }

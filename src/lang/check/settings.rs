@@ -478,6 +478,21 @@ impl Checker<'_> {
                     .label("not a positive number")
                     .help("e.g. `solver objective_scale = 1000` for stage costs around 1e-4"),
                 ),
+                ("rollout_push", Ok(push)) if push > 0.0 && push < 0.5 => {
+                    hints.rollout_push = Some(push)
+                }
+                ("rollout_push", _) => self.diags.push(
+                    Diagnostic::error(
+                        "E030",
+                        value.span,
+                        format!(
+                            "the roll-out's push must be a number between 0 and 0.5, not `{}`",
+                            value.text
+                        ),
+                    )
+                    .label("not in (0, 0.5)")
+                    .help("e.g. `solver rollout_push = 1e-4` for a stiff plant"),
+                ),
                 _ => self.diags.push(
                     Diagnostic::error(
                         "E030",
@@ -485,7 +500,7 @@ impl Checker<'_> {
                         format!("unknown solver setting `{} = {}`", key.text, value.text),
                     )
                     .label("not understood")
-                    .help("the setting is `objective_scale = <positive number>`"),
+                    .help("the settings are `objective_scale = <positive number>` and `rollout_push = <number in (0, 0.5)>`"),
                 ),
             }
         }

@@ -193,6 +193,8 @@ impl StartKind {
             },
             kappa: if warm {
                 options.warm_push
+            } else if let Some(push) = start.push {
+                push
             } else if start.shifted {
                 options.shifted_push
             } else {
