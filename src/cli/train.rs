@@ -191,36 +191,26 @@ fn recorded_command(summary: &serde_json::Value) -> String {
     }
 }
 
-/// Refuses `--episodes`, `--warmup`, `--gamma`, `--batch-size` and `--seed` that differ from a resumed training's.
+/// Refuses `--episodes`, `--warmup`, `--gamma`, `--batch-size` and `--seed` that differ
+/// from a resumed training's.
 fn check_same_settings(args: &TrainArgs, config: &SacConfig) -> Result<(), CliError> {
-    let checks = [
-        ("--episodes", args.episodes, config.episodes),
-        ("--warmup", args.warmup, config.warmup_episodes),
-    ];
-    for (option, given, kept) in checks {
-        if let Some(given) = given.filter(|g| *g != kept) {
-            return Err(CliError::Argument(format!(
-                "{option} {given} conflicts with the checkpoint's {kept}: a resumed training keeps its settings; drop {option}"
-            )));
-        }
+    same_as_kept("--episodes", args.episodes, config.episodes)?;
+    same_as_kept("--warmup", args.warmup, config.warmup_episodes)?;
+    same_as_kept("--gamma", args.gamma, config.gamma)?;
+    same_as_kept("--batch-size", args.batch_size, config.batch_size)?;
+    same_as_kept("--seed", args.seed, config.seed)
+}
+
+/// Refuses `option`'s `given` value where it differs from the checkpoint's `kept` one.
+fn same_as_kept<T: PartialEq + std::fmt::Display>(
+    option: &str,
+    given: Option<T>,
+    kept: T,
+) -> Result<(), CliError> {
+    match given.filter(|g| *g != kept) {
+        Some(given) => Err(CliError::Argument(format!(
+            "{option} {given} conflicts with the checkpoint's {kept}: a resumed training keeps its settings; drop {option}"
+        ))),
+        None => Ok(()),
     }
-    if let Some(gamma) = args.gamma.filter(|g| *g != config.gamma) {
-        return Err(CliError::Argument(format!(
-            "--gamma {gamma} conflicts with the checkpoint's {}: a resumed training keeps its settings; drop --gamma",
-            config.gamma
-        )));
-    }
-    if let Some(batch) = args.batch_size.filter(|b| *b != config.batch_size) {
-        return Err(CliError::Argument(format!(
-            "--batch-size {batch} conflicts with the checkpoint's {}: a resumed training keeps its settings; drop --batch-size",
-            config.batch_size
-        )));
-    }
-    if let Some(seed) = args.seed.filter(|s| *s != config.seed) {
-        return Err(CliError::Argument(format!(
-            "--seed {seed} conflicts with the checkpoint's {}: a resumed training keeps its settings; drop --seed",
-            config.seed
-        )));
-    }
-    Ok(())
 }
