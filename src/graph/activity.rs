@@ -30,11 +30,11 @@ pub(crate) fn is_active(args: ActiveArgs, k: usize) -> bool {
 /// The active arguments of every instruction of `tape`, in tape order, when the inputs
 /// `wrt` are the ones differentiated against.
 pub(crate) fn active_args(tape: &Tape, wrt: &[usize]) -> Vec<ActiveArgs> {
-    let mut active = vec![false; tape.n_slots];
+    let mut active = vec![false; tape.n_slots()];
     for &i in wrt {
         active[i] = true;
     }
-    tape.instrs
+    tape.instructions()
         .iter()
         .map(|ins| {
             let args = (0..ins.op.arity())
@@ -62,9 +62,9 @@ mod tests {
         let sum = g.add(xp, two_y); // both
         let tape = g.compile(&[sum], 3);
         let args = active_args(&tape, &[0, 1]);
-        assert_eq!(args.len(), tape.instrs.len());
+        assert_eq!(args.len(), tape.instructions().len());
         let by_op: Vec<(crate::graph::Op, ActiveArgs)> = tape
-            .instrs
+            .instructions()
             .iter()
             .map(|ins| ins.op)
             .zip(args.iter().copied())

@@ -72,8 +72,8 @@ impl Derivatives {
             },
             inputs: vec![Lane::from(0.0); tape.n_inputs],
             ws: tape.workspace::<Lane>(),
-            adjoint: vec![Lane::from(0.0); tape.n_slots],
-            live: vec![false; tape.n_slots],
+            adjoint: vec![Lane::from(0.0); tape.n_slots()],
+            live: vec![false; tape.n_slots()],
             grouped: None,
         }
     }
@@ -315,7 +315,7 @@ pub(crate) fn reverse_sweep<T: Real>(
         live[s as usize] |= w != 0.0;
     }
     let v = &ws.slots;
-    for (ins, &args) in tape.instrs.iter().zip(active).rev() {
+    for (ins, &args) in tape.instructions().iter().zip(active).rev() {
         if args == 0 || !live[ins.out as usize] {
             continue;
         }
@@ -396,8 +396,8 @@ pub fn gradient_f64(tape: &Tape, x: &[f64], weights: &[f64]) -> Vec<f64> {
     let mut ws = tape.workspace::<f64>();
     ws.slots[..tape.n_inputs].copy_from_slice(x);
     tape.run(&mut ws);
-    let mut adjoint = vec![0.0; tape.n_slots];
-    let mut live = vec![false; tape.n_slots];
+    let mut adjoint = vec![0.0; tape.n_slots()];
+    let mut live = vec![false; tape.n_slots()];
     let everything: Vec<usize> = (0..tape.n_inputs).collect();
     let active = active_args(tape, &everything);
     reverse_sweep(tape, &active, &ws, weights, &mut adjoint, &mut live);

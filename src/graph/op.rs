@@ -240,6 +240,15 @@ impl Op {
             Op::Sub => std::array::from_fn(|l| a[l] - b[l]),
             Op::Mul => std::array::from_fn(|l| a[l] * b[l]),
             Op::Div => std::array::from_fn(|l| a[l] / b[l]),
+            // The transcendental ops most common in models, without a call and a second
+            // dispatch per point (a tenth of GreenLight's `f`); the same functions as
+            // `apply` on `f64`.
+            Op::Exp => a.map(f64::exp),
+            Op::Powi(n) => a.map(|x| x.powi(n)),
+            Op::Powf(bits) => {
+                let exponent = f64::from_bits(bits);
+                a.map(|x| x.powf(exponent))
+            }
             _ => std::array::from_fn(|l| self.apply_f64(a[l], b[l], c[l])),
         }
     }
@@ -325,6 +334,25 @@ mod tests {
         Op::Floor,
         Op::Mod,
     ];
+
+    /// `apply_points` gives `apply_f64`'s value at every point, to the bit.
+    #[test]
+    fn values_at_points_are_the_values_one_by_one() {
+        let a = [0.3, -1.7, 2.5, 0.0];
+        let b = [1.1, 0.6, -2.0, 0.0];
+        let c = [-0.4, 3.0, 0.9, 1.0];
+        for &op in ALL {
+            let points = op.apply_points(a, b, c);
+            for l in 0..4 {
+                let one = op.apply_f64(a[l], b[l], c[l]);
+                assert!(
+                    points[l].to_bits() == one.to_bits() || (points[l].is_nan() && one.is_nan()),
+                    "{op:?} at point {l}: {} against {one}",
+                    points[l]
+                );
+            }
+        }
+    }
 
     #[test]
     fn written_out_partials_match_the_dual_partials() {

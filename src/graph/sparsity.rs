@@ -113,11 +113,11 @@ impl Sparsity {
 fn propagate(tape: &Tape, wrt: &[usize], mut meet: impl FnMut(&Bits, &Bits)) -> Vec<Vec<usize>> {
     let words = wrt.len().div_ceil(64).max(1);
     let empty: Bits = vec![0; words];
-    let mut deps: Vec<Bits> = vec![empty.clone(); tape.n_slots];
+    let mut deps: Vec<Bits> = vec![empty.clone(); tape.n_slots()];
     for (col, &i) in wrt.iter().enumerate() {
         deps[i][col / 64] |= 1 << (col % 64);
     }
-    for ins in &tape.instrs {
+    for ins in tape.instructions() {
         let [a, b, c] = ins.args.map(|s| s as usize);
         let d = match ins.op {
             op if op.is_piecewise_constant() => empty.clone(),

@@ -51,9 +51,12 @@ pub(crate) struct Instr {
 #[derive(Debug, Clone)]
 pub struct Tape {
     pub(crate) n_inputs: usize,
-    pub(crate) n_slots: usize,
+    /// This and `instrs` are private so that every tape is made by [`Tape::checked`] and
+    /// stays as it checked: the interpreters below read slots without bounds checks on the
+    /// strength of that check.
+    n_slots: usize,
     pub(crate) constants: Vec<(u32, f64)>,
-    pub(crate) instrs: Vec<Instr>,
+    instrs: Vec<Instr>,
     pub(crate) outputs: Vec<u32>,
 }
 
@@ -106,13 +109,41 @@ impl Tape {
                 next += 1;
             }
         }
-        Tape {
+        Tape::checked(Tape {
             n_inputs,
             n_slots: next as usize,
             constants,
             instrs,
             outputs: outputs.iter().map(|o| slot[o]).collect(),
-        }
+        })
+    }
+
+    /// `tape`, once every slot its instructions read or write is known to lie below
+    /// `n_slots` (and inside any workspace of at least that many slots).
+    fn checked(tape: Tape) -> Tape {
+        let n = tape.n_slots;
+        let inside = |slot: u32| (slot as usize) < n;
+        assert!(
+            tape.n_inputs <= n
+                && tape
+                    .instrs
+                    .iter()
+                    .all(|i| i.args.iter().all(|&a| inside(a)) && inside(i.out))
+                && tape.outputs.iter().all(|&o| inside(o))
+                && tape.constants.iter().all(|&(c, _)| inside(c)),
+            "a tape reads or writes a slot past its {n}"
+        );
+        tape
+    }
+
+    /// The instructions, in the order they run.
+    pub(crate) fn instructions(&self) -> &[Instr] {
+        &self.instrs
+    }
+
+    /// Slots of a workspace: inputs, constants and one per instruction.
+    pub(crate) fn n_slots(&self) -> usize {
+        self.n_slots
     }
 
     /// Length of the input vector an evaluation takes.
@@ -143,10 +174,22 @@ impl Tape {
     #[inline]
     pub(crate) fn run<T: Real>(&self, ws: &mut Workspace<T>) {
         let s = &mut ws.slots;
+        assert!(
+            s.len() >= self.n_slots,
+            "a workspace too small for its tape"
+        );
         for ins in &self.instrs {
-            let [a, b, c] = ins.args;
-            let v = ins.op.apply(s[a as usize], s[b as usize], s[c as usize]);
-            s[ins.out as usize] = v;
+            let [a, b, c] = ins.args.map(|slot| slot as usize);
+            // SAFETY: every slot an instruction reads or writes is below `n_slots`
+            // (`Tape::checked`), which is at most `s.len()` (asserted above).
+            unsafe {
+                let v = ins.op.apply(
+                    *s.get_unchecked(a),
+                    *s.get_unchecked(b),
+                    *s.get_unchecked(c),
+                );
+                *s.get_unchecked_mut(ins.out as usize) = v;
+            }
         }
     }
 
@@ -187,6 +230,7 @@ impl Tape {
     /// tape.eval_points(&mut ws, &[[1.0, 0.5], [2.0, 3.0]], &mut out);
     /// assert_eq!(out, [[f64::exp(2.0), f64::exp(1.5)]]);
     /// ```
+    #[inline(never)]
     pub fn eval_points<const N: usize>(
         &self,
         ws: &mut PointsWorkspace<N>,
@@ -197,11 +241,21 @@ impl Tape {
         debug_assert_eq!(outputs.len(), self.outputs.len());
         let s = &mut ws.slots;
         s[..self.n_inputs].copy_from_slice(inputs);
+        assert!(
+            s.len() >= self.n_slots,
+            "a workspace too small for its tape"
+        );
         for ins in &self.instrs {
-            let [a, b, c] = ins.args;
-            s[ins.out as usize] = ins
-                .op
-                .apply_points(s[a as usize], s[b as usize], s[c as usize]);
+            let [a, b, c] = ins.args.map(|slot| slot as usize);
+            // SAFETY: every slot an instruction reads or writes is below `n_slots`
+            // (`Tape::checked`), which is at most `s.len()` (asserted above).
+            unsafe {
+                *s.get_unchecked_mut(ins.out as usize) = ins.op.apply_points(
+                    *s.get_unchecked(a),
+                    *s.get_unchecked(b),
+                    *s.get_unchecked(c),
+                );
+            }
         }
         for (o, &slot) in outputs.iter_mut().zip(&self.outputs) {
             *o = s[slot as usize];
@@ -247,13 +301,13 @@ impl Tape {
                 instrs.push(*ins);
             }
         }
-        Tape {
+        Tape::checked(Tape {
             n_inputs: self.n_inputs,
             n_slots: self.n_slots,
             constants: self.constants.clone(),
             instrs,
             outputs: self.outputs.clone(),
-        }
+        })
     }
 
     /// Convenience: evaluate on floats with a fresh workspace (allocates; not for hot loops).
@@ -269,6 +323,22 @@ impl Tape {
 mod tests {
     use crate::graph::{Graph, Op};
     use num_dual::Dual64;
+
+    /// The interpreters read slots unchecked: a workspace made for a smaller tape is
+    /// refused before any is read.
+    #[test]
+    #[should_panic(expected = "a workspace too small for its tape")]
+    fn a_workspace_of_a_smaller_tape_is_refused() {
+        let mut g = Graph::new();
+        let x = g.var(0);
+        let small = g.compile(&[x], 1);
+        let e = g.apply(Op::Exp, &[x]);
+        let f = g.apply(Op::Exp, &[e]);
+        let large = g.compile(&[f], 1);
+        let mut ws = small.points_workspace::<2>();
+        let mut out = [[0.0; 2]];
+        large.eval_points(&mut ws, &[[1.0, 2.0]], &mut out);
+    }
 
     #[test]
     fn tape_matches_graph_and_carries_duals() {

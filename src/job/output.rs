@@ -217,20 +217,21 @@ impl TrajectoryWriter {
     /// allocating a string per field.
     fn write_row(&mut self, log: &StepLog) -> csv::Result<()> {
         let (out, scratch) = (&mut self.out, &mut self.scratch);
-        let mut field = |text: std::fmt::Arguments| {
+        let mut field = |out: &mut csv::Writer<File>, text: std::fmt::Arguments| {
             scratch.clear();
             // Formatting into a `String` cannot fail.
             let _ = scratch.write_fmt(text);
             out.write_field(scratch.as_bytes())
         };
-        field(format_args!("{}", log.step))?;
-        field(format_args!("{}", log.step as f64 * self.period_h))?;
+        field(out, format_args!("{}", log.step))?;
+        field(out, format_args!("{}", log.step as f64 * self.period_h))?;
+        let mut digits = ryu::Buffer::new();
         for v in season_numbers(log) {
-            field(format_args!("{v:e}"))?;
+            out.write_field(digits.format(v))?;
         }
-        field(format_args!("{:.4}", log.record.solve_time_s * 1e3))?;
-        field(format_args!("{}", log.record.iterations))?;
-        field(format_args!("{}", log.record.inertia_corrections))?;
+        field(out, format_args!("{:.4}", log.record.solve_time_s * 1e3))?;
+        field(out, format_args!("{}", log.record.iterations))?;
+        field(out, format_args!("{}", log.record.inertia_corrections))?;
         for text in text_fields(log) {
             out.write_field(text)?;
         }

@@ -17,8 +17,9 @@
 //! solves of about half. The iterates are those of the unsplit matrix, up to round-off.
 //! Methods whose `A⁻¹` is not diagonalisable (SDIRK: one eigenvalue, thrice) have no split.
 
-use super::dense_lu::DenseLu;
+use super::sparse_lu::{NewtonLu, SparseOrder};
 use nalgebra::{Complex, DMatrix, DVector};
+use std::sync::Arc;
 
 /// One diagonal block of `Λ`: its first row in `w` and its eigenvalue(s).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -114,15 +115,24 @@ impl EigenSplit {
 
     /// The factored blocks for the Jacobian `jacobian` (`n × n`, row-major) and the
     /// sub-step length `h`.
-    pub fn factor(&self, jacobian: &[f64], n: usize, h: f64) -> SplitMatrix {
+    pub fn factor(
+        &self,
+        jacobian: &[f64],
+        n: usize,
+        h: f64,
+        order: Option<&Arc<SparseOrder>>,
+    ) -> SplitMatrix {
         let factors = self
             .blocks
             .iter()
             .map(|block| match *block {
-                Block::Real { gamma, .. } => {
-                    BlockFactor::Real(DenseLu::factor(shifted(jacobian, n, gamma / h, |v| v), n))
-                }
-                Block::Pair { alpha, beta, .. } => BlockFactor::Pair(DenseLu::factor(
+                Block::Real { gamma, .. } => BlockFactor::Real(NewtonLu::factor(
+                    order,
+                    shifted(jacobian, n, gamma / h, |v| v),
+                    n,
+                )),
+                Block::Pair { alpha, beta, .. } => BlockFactor::Pair(NewtonLu::factor(
+                    order,
                     shifted(jacobian, n, Complex::new(alpha / h, -beta / h), |v| {
                         Complex::new(v, 0.0)
                     }),
@@ -221,8 +231,8 @@ fn shifted<T: nalgebra::ComplexField + Copy>(
 /// The LU factors of one block of the split Newton matrix (`None`: the block is singular).
 #[derive(Debug, Clone)]
 enum BlockFactor {
-    Real(Option<DenseLu<f64>>),
-    Pair(Option<DenseLu<Complex<f64>>>),
+    Real(Option<NewtonLu<f64>>),
+    Pair(Option<NewtonLu<Complex<f64>>>),
 }
 
 /// The split Newton matrix of one Jacobian and sub-step length, factored, with its scratch.
@@ -275,7 +285,7 @@ impl SplitMatrix {
 
 impl Scratch {
     /// `(γ/h · I − J) w = γ/h · ρ` for rows `row` of `self.work`, in place.
-    fn solve_real(&mut self, lu: &DenseLu<f64>, row: usize, gamma: f64) {
+    fn solve_real(&mut self, lu: &NewtonLu<f64>, row: usize, gamma: f64) {
         let n = self.n;
         let g = gamma / self.h;
         let rho = &mut self.work[row * n..(row + 1) * n];
@@ -289,7 +299,7 @@ impl Scratch {
 
     /// `((α − iβ)/h · I − J)(w₁ + i w₂) = ((α ρ₁ + β ρ₂) + i (α ρ₂ − β ρ₁)) / h` for rows
     /// `row` and `row + 1` of `self.work`, in place.
-    fn solve_pair(&mut self, lu: &DenseLu<Complex<f64>>, row: usize, alpha: f64, beta: f64) {
+    fn solve_pair(&mut self, lu: &NewtonLu<Complex<f64>>, row: usize, alpha: f64, beta: f64) {
         let n = self.n;
         let (a, b) = (alpha / self.h, beta / self.h);
         let (first, second) = self.work[row * n..(row + 2) * n].split_at_mut(n);
@@ -334,13 +344,21 @@ mod tests {
             });
             let rhs: Vec<f64> = (0..s * n).map(|k| (k as f64 * 0.37).sin()).collect();
             let expected = dense.lu().solve(&DVector::from_column_slice(&rhs)).unwrap();
-            let mut got = rhs.clone();
-            assert!(split.factor(&jacobian, n, h).solve_mut(&split, &mut got));
-            for (g, e) in got.iter().zip(expected.iter()) {
-                assert!(
-                    (g - e).abs() < 1e-10 * (1.0 + e.abs()),
-                    "{integrator:?}: {g} vs {e}"
-                );
+            let rows: Vec<Vec<usize>> = (0..n)
+                .map(|r| (0..n).filter(|&c| jacobian[r * n + c] != 0.0).collect())
+                .collect();
+            let order = Arc::new(SparseOrder::of(n, &rows));
+            for order in [None, Some(&order)] {
+                let mut got = rhs.clone();
+                assert!(split
+                    .factor(&jacobian, n, h, order)
+                    .solve_mut(&split, &mut got));
+                for (g, e) in got.iter().zip(expected.iter()) {
+                    assert!(
+                        (g - e).abs() < 1e-10 * (1.0 + e.abs()),
+                        "{integrator:?}: {g} vs {e}"
+                    );
+                }
             }
         }
     }

@@ -16,6 +16,7 @@ pub mod finite;
 mod implicit;
 mod penalty;
 pub mod singular;
+mod sparse_lu;
 mod step_derivatives;
 mod terminal;
 pub mod verify;

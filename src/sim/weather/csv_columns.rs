@@ -12,13 +12,15 @@ pub(super) fn parse_cell(
     column: &str,
     text: &str,
 ) -> Result<f64, WeatherError> {
-    let (path, column) = (path.to_path_buf(), column.to_string());
+    // The path and the column are copied into an error only: a weather file has hundreds
+    // of thousands of cells.
+    let (path_buf, column_name) = (|| path.to_path_buf(), || column.to_string());
     match text.trim().parse::<f64>() {
-        Ok(v) if v.is_finite() => match range_of(&column) {
+        Ok(v) if v.is_finite() => match range_of(column) {
             Some(r) if !r.contains(v) => Err(WeatherError::OutOfRange {
-                path,
+                path: path_buf(),
                 row,
-                column,
+                column: column_name(),
                 value: v,
                 lower: r.lower,
                 upper: r.upper,
@@ -26,11 +28,15 @@ pub(super) fn parse_cell(
             }),
             _ => Ok(v),
         },
-        Ok(_) => Err(WeatherError::NotFinite { path, row, column }),
-        Err(_) => Err(WeatherError::NotNumeric {
-            path,
+        Ok(_) => Err(WeatherError::NotFinite {
+            path: path_buf(),
             row,
-            column,
+            column: column_name(),
+        }),
+        Err(_) => Err(WeatherError::NotNumeric {
+            path: path_buf(),
+            row,
+            column: column_name(),
             text: text.into(),
         }),
     }
