@@ -175,7 +175,19 @@ fn fit_and_write(
             seed: args.seed,
             state_index,
         },
-        &|done| progress.set_position(done as u64),
+        &|done| {
+            progress.set_position(done as u64);
+            // Without a terminal, a line at each tenth of the roll-outs, as the fit's epochs.
+            let tenth = (args.trajectories / 10).max(1);
+            if verbose && progress.is_hidden() && (done % tenth == 0 || done == args.trajectories) {
+                say!(
+                    verbose,
+                    "roll-outs {done}/{} ({:.0} s)",
+                    args.trajectories,
+                    started.elapsed().as_secs_f64()
+                );
+            }
+        },
     )?;
     progress.finish_and_clear();
     let rollout_s = started.elapsed().as_secs_f64();
