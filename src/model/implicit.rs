@@ -43,9 +43,7 @@ use nalgebra::{DMatrix, DVector, Dyn, LU};
 use super::eigen_split::{EigenSplit, SplitMatrix};
 use super::sparse_lu::SparseOrder;
 use super::Layout;
-use crate::graph::{
-    Derivatives, Evaluation, Graph, NodeId, PointsWorkspace, Sparsity, Tape, Workspace,
-};
+use crate::graph::{Derivatives, Evaluation, Graph, NodeId, PointsWorkspace, Tape, Workspace};
 use crate::lang::model::{Integrator, Model};
 use std::sync::Arc;
 
@@ -223,9 +221,8 @@ fn first_eta(last: f64) -> f64 {
 /// factors have at most half the entries of dense ones (GreenLight: `J` may be non-zero in
 /// 138 of its 784 entries; its factors in this order in 184, where partial pivoting's fill
 /// about 410).
-fn sparse_order(rhs: &Tape, nx: usize) -> Option<Arc<SparseOrder>> {
-    let pattern = Sparsity::of_jacobian(rhs, &(0..nx).collect::<Vec<_>>());
-    let order = SparseOrder::of(nx, &pattern.jacobian);
+fn sparse_order(jacobian: &Derivatives, nx: usize) -> Option<Arc<SparseOrder>> {
+    let order = SparseOrder::of(nx, &jacobian.pattern()?.jacobian);
     (2 * order.off_diagonal_entries() + nx <= nx * nx / 2).then(|| Arc::new(order))
 }
 
@@ -391,13 +388,14 @@ impl ImplicitStep {
         let mut all = step_outputs.to_vec();
         all.extend_from_slice(residuals);
         let rhs = graph.compile(&model.derivatives, layout.n_base());
+        let rhs_jacobian = Derivatives::grouped(&rhs, &(0..layout.nx).collect::<Vec<_>>());
         ImplicitStep {
             substeps: model.substeps,
             h: model.sample_period / model.substeps as f64,
             clock: model.clock().map(|i| layout.d(i)),
             rhs_state_part: rhs.dependents_of_first(layout.nx),
-            sparse_order: sparse_order(&rhs, layout.nx),
-            rhs_jacobian: Derivatives::grouped(&rhs, &(0..layout.nx).collect::<Vec<_>>()),
+            sparse_order: sparse_order(&rhs_jacobian, layout.nx),
+            rhs_jacobian,
             rhs,
             post: graph.compile(step_outputs, n_in),
             combined: graph.compile(&all, n_in),
@@ -589,6 +587,10 @@ impl ImplicitStep {
         reused: bool,
     ) -> Result<NewtonMatrix, NewtonFailure> {
         let nx = self.layout.nx;
+        if nx == 0 {
+            // No state, no stage equations (and no rows to take them by).
+            return Ok(lu);
+        }
         let s = self.tableau.stages;
         let mut previous = f64::INFINITY;
         let mut theta = 0.0;
@@ -602,7 +604,8 @@ impl ImplicitStep {
                 .chunks_exact_mut(nx)
                 .zip(ws.increments.chunks_exact(nx));
             for (i, (residual, increments)) in rows.enumerate() {
-                residual.fill(0.0);
+                // From −0.0, as `Iterator::sum` starts: the same bits as a sum over `j`.
+                residual.fill(-0.0);
                 for (j, slopes) in ws.slopes.chunks_exact(nx).enumerate() {
                     let a = self.tableau.a(i, j);
                     for (r, f) in residual.iter_mut().zip(slopes) {

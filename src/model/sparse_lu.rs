@@ -36,6 +36,11 @@ impl SparseOrder {
     /// The order of the `n × n` pattern whose row `r` may be non-zero in the columns
     /// `rows[r]` (the diagonal is always taken as non-zero).
     pub fn of(n: usize, rows: &[Vec<usize>]) -> SparseOrder {
+        assert!(
+            rows.len() <= n && rows.iter().flatten().all(|&c| c < n),
+            "a pattern of {} rows with a column past {n}",
+            rows.len()
+        );
         let mut pattern = vec![false; n * n];
         for (r, columns) in rows.iter().enumerate() {
             for &c in columns {
@@ -165,10 +170,17 @@ impl<T: Scalar> SparseLu<T> {
             let later = order.later(k);
             let pivot = a[k * n + k];
             let size = pivot.magnitude();
+            // NaN, where elimination made one, refuses the factors (`max` would skip it).
             let largest = later
                 .iter()
                 .map(|&i| a[i * n + k].magnitude())
-                .fold(0.0, f64::max);
+                .fold(0.0, |m: f64, x| {
+                    if x.is_nan() || m.is_nan() {
+                        f64::NAN
+                    } else {
+                        m.max(x)
+                    }
+                });
             if !(size.is_finite() && size > 0.0 && size >= PIVOT_THRESHOLD * largest) {
                 return None;
             }
@@ -347,6 +359,9 @@ mod tests {
         let mut outside = matrix(n, &rows, 3.0);
         outside[2 * n] = 0.5;
         assert!(SparseLu::factor(&order, &outside).is_none());
+        let mut undefined = matrix(n, &rows, 3.0);
+        undefined[n] = f64::NAN;
+        assert!(SparseLu::factor(&order, &undefined).is_none());
         for m in [m, outside] {
             let lu = NewtonLu::factor(Some(&order), m.clone(), n).expect("pivoting solves it");
             assert!(matches!(lu, NewtonLu::Dense(_)));
