@@ -230,6 +230,10 @@ impl Tape {
     /// tape.eval_points(&mut ws, &[[1.0, 0.5], [2.0, 3.0]], &mut out);
     /// assert_eq!(out, [[f64::exp(2.0), f64::exp(1.5)]]);
     /// ```
+    // Out of line: inlined into the implicit step's Newton loop, its code placement moved
+    // with every change around it (a GreenLight season 2–4 % either way). Its loop is
+    // `run`'s written again rather than shared through a closure, which cost `run` the
+    // inlining of `Op::apply` (`docs/benchmarks.md`, "The 111-day season in under 2 s").
     #[inline(never)]
     pub fn eval_points<const N: usize>(
         &self,

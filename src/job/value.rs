@@ -159,6 +159,7 @@ fn fit_and_write(
     let mut guide = make_guide();
     let nominal = nominal_run(plant, weather, steps, guide.as_mut())?;
     let bar = |len, template: &str| progress_bar_if(verbose, len, template);
+    let tenth = (args.trajectories / 10).max(1);
     let progress = bar(
         args.trajectories as u64,
         "roll-outs {bar:30} {pos}/{len} [{elapsed_precise}, eta {eta}]",
@@ -178,7 +179,6 @@ fn fit_and_write(
         &|done| {
             progress.set_position(done as u64);
             // Without a terminal, a line at each tenth of the roll-outs, as the fit's epochs.
-            let tenth = (args.trajectories / 10).max(1);
             if verbose && progress.is_hidden() && (done % tenth == 0 || done == args.trajectories) {
                 say!(
                     verbose,

@@ -10,6 +10,7 @@
 //! partial pivoting ([`NewtonLu`]).
 
 use super::dense_lu::{DenseLu, Scalar};
+use std::ops::Range;
 use std::sync::Arc;
 
 /// How much smaller than the largest entry below it, in its column, a pivot may be.
@@ -50,38 +51,8 @@ impl SparseOrder {
         for k in 0..n {
             pattern[k * n + k] = true;
         }
-        let mut adjacent: Vec<Vec<bool>> = (0..n)
-            .map(|i| {
-                (0..n)
-                    .map(|j| i != j && (pattern[i * n + j] || pattern[j * n + i]))
-                    .collect()
-            })
-            .collect();
-        let mut eliminated = vec![false; n];
-        let mut order = Vec::with_capacity(n);
-        let mut neighbours_at_elimination = Vec::with_capacity(n);
-        for _ in 0..n {
-            let live_neighbours = |v: usize, adjacent: &[Vec<bool>], eliminated: &[bool]| {
-                (0..n)
-                    .filter(|&j| adjacent[v][j] && !eliminated[j])
-                    .collect::<Vec<_>>()
-            };
-            let v = (0..n)
-                .filter(|&v| !eliminated[v])
-                .min_by_key(|&v| live_neighbours(v, &adjacent, &eliminated).len())
-                .unwrap_or(0);
-            let neighbours = live_neighbours(v, &adjacent, &eliminated);
-            for &a in &neighbours {
-                for &b in &neighbours {
-                    if a != b {
-                        adjacent[a][b] = true;
-                    }
-                }
-            }
-            eliminated[v] = true;
-            order.push(v);
-            neighbours_at_elimination.push(neighbours);
-        }
+        let (order, neighbours_at_elimination): (Vec<usize>, Vec<Vec<usize>>) =
+            minimum_degree(n, &pattern).into_iter().unzip();
         let mut position = vec![0; n];
         for (k, &v) in order.iter().enumerate() {
             position[v] = k;
@@ -118,13 +89,62 @@ impl SparseOrder {
         self.later_rows.len()
     }
 
+    /// Where `L`'s column `k` lies in `later_rows` (and in a factor's `lower`).
+    fn later_range(&self, k: usize) -> Range<usize> {
+        self.later_start[k]..self.later_start[k + 1]
+    }
+
+    /// Where `U`'s column `j` lies in `earlier_rows` (and in a factor's `upper`).
+    fn earlier_range(&self, j: usize) -> Range<usize> {
+        self.earlier_start[j]..self.earlier_start[j + 1]
+    }
+
     fn later(&self, k: usize) -> &[usize] {
-        &self.later_rows[self.later_start[k]..self.later_start[k + 1]]
+        &self.later_rows[self.later_range(k)]
     }
 
     fn earlier(&self, j: usize) -> &[usize] {
-        &self.earlier_rows[self.earlier_start[j]..self.earlier_start[j + 1]]
+        &self.earlier_rows[self.earlier_range(j)]
     }
+}
+
+/// Greedy minimum degree on the symmetric closure of the `n × n` `pattern` (row-major):
+/// each vertex in the order of elimination (the lowest index among the least connected),
+/// with the vertices still live beside it then, which become a clique (the fill).
+fn minimum_degree(n: usize, pattern: &[bool]) -> Vec<(usize, Vec<usize>)> {
+    let mut adjacent: Vec<Vec<bool>> = (0..n)
+        .map(|i| {
+            (0..n)
+                .map(|j| i != j && (pattern[i * n + j] || pattern[j * n + i]))
+                .collect()
+        })
+        .collect();
+    let mut eliminated = vec![false; n];
+    let mut eliminations = Vec::with_capacity(n);
+    for _ in 0..n {
+        let live_neighbours = |v: usize| -> Vec<usize> {
+            (0..n)
+                .filter(|&j| adjacent[v][j] && !eliminated[j])
+                .collect()
+        };
+        let Some((v, neighbours)) = (0..n)
+            .filter(|&v| !eliminated[v])
+            .map(|v| (v, live_neighbours(v)))
+            .min_by_key(|(_, neighbours)| neighbours.len())
+        else {
+            break;
+        };
+        for &a in &neighbours {
+            for &b in &neighbours {
+                if a != b {
+                    adjacent[a][b] = true;
+                }
+            }
+        }
+        eliminated[v] = true;
+        eliminations.push((v, neighbours));
+    }
+    eliminations
 }
 
 fn flatten(lists: &[Vec<usize>]) -> (Vec<usize>, Vec<usize>) {
@@ -219,7 +239,7 @@ impl<T: Scalar> SparseLu<T> {
         }
         for k in 0..n {
             let x = scratch[k];
-            let entries = &self.lower[order.later_start[k]..order.later_start[k + 1]];
+            let entries = &self.lower[order.later_range(k)];
             for (&i, &l) in order.later(k).iter().zip(entries) {
                 scratch[i] = scratch[i] - l * x;
             }
@@ -227,7 +247,7 @@ impl<T: Scalar> SparseLu<T> {
         for j in (0..n).rev() {
             let x = scratch[j] * self.inverse_diagonal[j];
             scratch[j] = x;
-            let entries = &self.upper[order.earlier_start[j]..order.earlier_start[j + 1]];
+            let entries = &self.upper[order.earlier_range(j)];
             for (&k, &u) in order.earlier(j).iter().zip(entries) {
                 scratch[k] = scratch[k] - u * x;
             }
