@@ -314,6 +314,16 @@ der temp = -temp / 3600
 );
 
 bad!(
+    bad_plan_substeps,
+    1,
+    r#"
+sample 300 [s] integrator radau5 substeps 4 plan substeps 0
+state temp [°C] = 15
+der temp = -temp / 3600
+"#
+);
+
+bad!(
     sample_declared_twice,
     1,
     r#"

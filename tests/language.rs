@@ -3,9 +3,12 @@
 //! a step, `mod`/`floor`, `and`/`or`/`not`, `==`/`!=`. Each is checked by its value on
 //! the step or output it builds; their diagnostics are snapshots in `tests/diagnostics.rs`.
 
+use ghm::control::Mpc;
 use ghm::lang::{load, load_str, Model};
 use ghm::model::Plant;
+use ghm::solve::Ipm;
 use std::path::Path;
+use std::sync::Arc;
 
 fn model(text: &str) -> Model {
     load_str("test.ghm", text).unwrap_or_else(|e| panic!("{}", e.render()))
@@ -117,6 +120,35 @@ der x = time
     let euler = Plant::new(model(&text("euler")));
     let step = euler.step(&[0.0], &[], &[1000.0], &[]);
     assert!((step.next_state[0] - (50.0 * 1000.0 + 50.0 * 1050.0)).abs() < 1e-9);
+}
+
+#[test]
+fn controllers_plan_with_the_plan_substeps_and_the_plant_simulates_with_its_own() {
+    // ẋ = −x over 100 s in Euler steps: (1 − 100/n)ⁿ from x = 1, so the two integrations
+    // differ, and which one a plant holds shows in its step.
+    let text = |plan: &str| {
+        format!(
+            "sample 100 [s] integrator euler substeps 4{plan}
+state x = 1
+der x = -x / 100
+"
+        )
+    };
+    let plant = Arc::new(Plant::new(model(&text(" plan substeps 2"))));
+    assert_eq!((plant.model.substeps, plant.model.plan_substeps), (4, 2));
+    let simulated = plant.step(&[1.0], &[], &[], &[]).next_state[0];
+    assert!((simulated - 0.75f64.powi(4)).abs() < 1e-15);
+    let planning = plant.planning();
+    assert_eq!(planning.model.substeps, 2);
+    assert!((planning.step(&[1.0], &[], &[], &[]).next_state[0] - 0.25).abs() < 1e-15);
+    assert!(Arc::ptr_eq(&planning, &plant.planning()), "built once");
+    // Without `plan substeps`, the plant plans with itself.
+    let plain = Arc::new(Plant::new(model(&text(""))));
+    assert_eq!(plain.model.plan_substeps, 4);
+    assert!(Arc::ptr_eq(&plain, &plain.planning()));
+    // MPC predicts with the planning plant.
+    let mpc = Mpc::new(plant, 2, Box::new(Ipm::default())).unwrap();
+    assert_eq!(mpc.ocp().plant().model.substeps, 2);
 }
 
 #[test]

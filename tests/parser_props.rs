@@ -372,9 +372,10 @@ fn statement() -> impl Strategy<Value = String> {
             expr(),
             opt(select(&["[s]", "[min]", "[h]", "[d]"][..]).prop_map(|u| format!(" {u}"))),
             opt(select(&["rk4", "euler", "heun"][..]).prop_map(|i| format!(" integrator {i}"))),
-            opt(expr().prop_map(|e| format!(" substeps {e}")))
+            opt(expr().prop_map(|e| format!(" substeps {e}"))),
+            opt(expr().prop_map(|e| format!(" plan substeps {e}")))
         )
-            .prop_map(|(e, u, i, n)| format!("sample {e}{u}{i}{n}")),
+            .prop_map(|(e, u, i, n, p)| format!("sample {e}{u}{i}{n}{p}")),
         (
             name(),
             band(),

@@ -87,8 +87,13 @@ pub fn run(args: &CheckArgs) -> Result<(), CliError> {
             m.outputs[b.output].info.name, b.lower, b.upper
         ))
     );
+    let planning = if m.plan_substeps == m.substeps {
+        String::new()
+    } else {
+        format!(", controllers predict with {}", m.plan_substeps)
+    };
     println!(
-        "  sample period {} s, {} with {} sub-step(s)",
+        "  sample period {} s, {} with {} sub-step(s){planning}",
         m.sample_period,
         m.integrator.name(),
         m.substeps

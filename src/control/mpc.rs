@@ -91,12 +91,13 @@ pub struct Mpc {
 
 impl Mpc {
     /// MPC of `plant` over `horizon` steps with `solver`, predicting with nominal
-    /// parameters.
+    /// parameters and the model's `plan substeps` ([`Plant::planning`]).
     pub fn new(
         plant: Arc<Plant>,
         horizon: usize,
         solver: Box<dyn Solver>,
     ) -> Result<Mpc, OcpError> {
+        let plant = plant.planning();
         let rules = Rules::new(Arc::clone(&plant))
             .ok()
             .map(|rules| (rules, RollOut::new(Arc::clone(&plant))));

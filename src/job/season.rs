@@ -371,7 +371,7 @@ fn build_mpc(
     plant_spec: &PlantSpec,
 ) -> Result<(Mpc, usize, serde_json::Value), JobError> {
     let horizon = parse_horizon("horizon", &spec.horizon, plant.model.sample_period)?;
-    let bands = spec.bands.resolve(plant_spec);
+    let bands = spec.bands.resolve(plant_spec, &plant.model);
     let mpc = make_mpc(plant, horizon, spec, bands)?;
     let extra = json!({
         "horizon_steps": horizon,

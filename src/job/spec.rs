@@ -429,8 +429,9 @@ crate::choice! {
 crate::choice! {
     /// Which bounds of the soft bands MPC plans with.
     pub enum BandsChoice {
-        /// The model file's `plan` bounds when the plant is uncertain (`uncertainty` > 0),
-        /// the scoring bounds when it is the model (default).
+        /// The model file's `plan` bounds when the plant differs from the model MPC
+        /// predicts with (`uncertainty` > 0, or the model's `plan substeps` differ from its
+        /// `substeps`), the scoring bounds when it is that model (default).
         Auto = "auto",
         /// Always the `plan` bounds (a back-off even on the nominal plant).
         Planning = "planning",
@@ -441,14 +442,15 @@ crate::choice! {
 }
 
 impl BandsChoice {
-    /// The bands for a season on a plant with this uncertainty.
-    pub fn resolve(self, plant: &PlantSpec) -> crate::nlp::Bands {
+    /// The bands for a season of `model` on a plant with this uncertainty.
+    pub fn resolve(self, plant: &PlantSpec, model: &crate::lang::Model) -> crate::nlp::Bands {
         use crate::nlp::Bands;
+        let predicted_exactly = plant.uncertainty == 0.0 && model.plan_substeps == model.substeps;
         match self {
             BandsChoice::Planning => Bands::Planning,
             BandsChoice::Scoring => Bands::Scoring,
-            BandsChoice::Auto if plant.uncertainty > 0.0 => Bands::Planning,
-            BandsChoice::Auto => Bands::Scoring,
+            BandsChoice::Auto if predicted_exactly => Bands::Scoring,
+            BandsChoice::Auto => Bands::Planning,
         }
     }
 }

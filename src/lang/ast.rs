@@ -224,7 +224,7 @@ pub enum Stmt {
         /// Unit and description.
         doc: Doc,
     },
-    /// `sample EXPR [unit] integrator NAME substeps N`: the control period.
+    /// `sample EXPR [unit] integrator NAME substeps N plan substeps M`: the control period.
     Sample {
         /// The period in `unit`, a constant expression.
         period: Expr,
@@ -234,6 +234,9 @@ pub enum Stmt {
         integrator: Option<Name>,
         /// `substeps N`: integration steps per period (1–1000); `None`: 1.
         substeps: Option<Expr>,
+        /// `plan substeps M`: integration steps per period in the controllers' predictions
+        /// (1–1000); `None`: `substeps`.
+        plan_substeps: Option<Expr>,
         /// Where the statement is.
         span: Span,
     },

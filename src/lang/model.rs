@@ -345,6 +345,11 @@ pub struct Model {
     pub integrator: Integrator,
     /// Integration steps per period, 1 to 1000 (`substeps N`, default 1).
     pub substeps: usize,
+    /// Integration steps per period in the controllers' predictions, 1 to 1000 (`plan
+    /// substeps M`, default `substeps`): MPC and RL-guided MPC plan on the model integrated
+    /// with them ([`crate::model::Plant::planning`]); simulations, the season optimum and
+    /// every check use `substeps`.
+    pub plan_substeps: usize,
     /// The objective terms (`reward`, `cost`, `terminal`), in declaration order.
     pub terms: Vec<TermDecl>,
     /// The soft bands, at most one per output, in declaration order.

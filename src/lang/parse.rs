@@ -414,12 +414,16 @@ impl Builder {
             Rule::sample_stmt => {
                 let period = self.expr(self.next(&mut it, span)?)?;
                 let (mut unit, mut integrator, mut substeps) = (None, None, None);
+                let mut plan_substeps = None;
                 for q in it {
                     match q.as_rule() {
                         Rule::unit => unit = Some(Self::unit(q)),
                         Rule::integrator => integrator = q.children().next().map(|n| self.name(n)),
                         Rule::substeps => {
                             substeps = Some(self.expr(self.next(&mut q.children(), span)?)?)
+                        }
+                        Rule::plan_substeps => {
+                            plan_substeps = Some(self.expr(self.next(&mut q.children(), span)?)?)
                         }
                         _ => {}
                     }
@@ -429,6 +433,7 @@ impl Builder {
                     unit,
                     integrator,
                     substeps,
+                    plan_substeps,
                     span,
                 }
             }

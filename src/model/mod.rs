@@ -34,6 +34,7 @@ use crate::graph::{Graph, NodeId, Tape, Workspace};
 use crate::lang::ast::TermKind;
 use crate::lang::model::{Integrator, Model};
 use implicit::{ImplicitStep, ImplicitWorkspace, Purpose, Tableau};
+use std::sync::{Arc, OnceLock};
 
 /// The discrete step as graph nodes.
 #[derive(Debug, Clone, PartialEq)]
@@ -231,6 +232,9 @@ pub struct Plant {
     /// The `terminal` terms' rewards over `(x, u, d, p)` (they read `x` and `p` only);
     /// `None` when the model has none.
     terminal: Option<Tape>,
+    /// The plant the controllers predict with, built on first use where the model plans
+    /// with other sub-steps than it simulates with ([`Plant::planning`]).
+    planning: OnceLock<Arc<Plant>>,
 }
 
 /// The scratch of a [`StepKernel`].
@@ -334,7 +338,24 @@ impl Plant {
             step,
             output,
             terminal,
+            planning: OnceLock::new(),
         }
+    }
+
+    /// The plant the controllers predict with (MPC, RL-guided MPC): the model integrated
+    /// with its `plan substeps`, built once; the plant itself where those are its
+    /// `substeps`. Simulations, the season optimum and the checks use the plant itself.
+    pub fn planning(self: &Arc<Self>) -> Arc<Plant> {
+        if self.model.plan_substeps == self.model.substeps {
+            return Arc::clone(self);
+        }
+        let plant = self.planning.get_or_init(|| {
+            Arc::new(Plant::new(Model {
+                substeps: self.model.plan_substeps,
+                ..self.model.clone()
+            }))
+        });
+        Arc::clone(plant)
     }
 
     /// The tape of the model's `terminal` terms: inputs `(x, u, d, p)`, one output per

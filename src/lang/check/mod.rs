@@ -340,7 +340,7 @@ impl<'d> Checker<'d> {
         }
         self.check_unused_functions();
         self.check_clocks(&dists);
-        let (sample_period, integrator, substeps) = self.sample(d.sample.as_ref());
+        let sample = self.sample(d.sample.as_ref());
         let uncertainty = self.uncertainty(d.uncertainty.as_ref());
         let solver = self.solver_hints(&d.solver);
         self.warn_unused(&param_decls, &consts, &dists, &inputs);
@@ -364,9 +364,10 @@ impl<'d> Checker<'d> {
                 .map(|d| d.unwrap_or(missing))
                 .collect(),
             outputs,
-            sample_period,
-            integrator,
-            substeps,
+            sample_period: sample.period,
+            integrator: sample.integrator,
+            substeps: sample.substeps,
+            plan_substeps: sample.plan_substeps,
             terms,
             soft,
             uncertainty,

@@ -7,6 +7,18 @@ use crate::lang::diagnostic::Diagnostic;
 use crate::lang::model::*;
 use crate::lang::source::Span;
 
+/// What a `sample` statement sets.
+pub(super) struct Sample {
+    /// The control period in seconds.
+    pub period: f64,
+    /// `integrator NAME` (`rk4` without one).
+    pub integrator: Integrator,
+    /// `substeps N` (1 without).
+    pub substeps: usize,
+    /// `plan substeps M` (`substeps` without).
+    pub plan_substeps: usize,
+}
+
 /// Shortest sample period accepted, in seconds.
 const MIN_PERIOD_S: f64 = 0.1;
 /// Longest sample period accepted, in seconds: one day.
@@ -305,7 +317,7 @@ impl Checker<'_> {
         (lo, hi)
     }
 
-    pub(super) fn sample(&mut self, s: Option<&Statement>) -> (f64, Integrator, usize) {
+    pub(super) fn sample(&mut self, s: Option<&Statement>) -> Sample {
         let Some(Statement {
             stmt:
                 Stmt::Sample {
@@ -313,6 +325,7 @@ impl Checker<'_> {
                     unit,
                     integrator,
                     substeps,
+                    plan_substeps,
                     span,
                 },
             ..
@@ -323,7 +336,12 @@ impl Checker<'_> {
                     .label("")
                     .help("add e.g. `sample 1800 [s] integrator rk4 substeps 4` to set the control period"),
             );
-            return (f64::NAN, Integrator::Rk4, 1);
+            return Sample {
+                period: f64::NAN,
+                integrator: Integrator::Rk4,
+                substeps: 1,
+                plan_substeps: 1,
+            };
         };
         let mut p = self
             .constant(period, "the sample period")
@@ -382,29 +400,38 @@ impl Checker<'_> {
                 Integrator::Rk4
             }),
         };
-        let n = match substeps {
-            Some(e) => {
-                let v = self
-                    .constant(e, "the number of sub-steps")
-                    .unwrap_or(f64::NAN);
-                if !(v >= 1.0 && v.fract() == 0.0 && v <= 1000.0) {
-                    self.diags.push(
-                        Diagnostic::error(
-                            "E017",
-                            e.span(),
-                            format!("sub-steps must be a whole number from 1 to 1000, not {v}"),
-                        )
-                        .label("here")
-                        .help("e.g. `substeps 4`"),
-                    );
-                    1
-                } else {
-                    v as usize
-                }
-            }
-            None => 1,
-        };
-        (p, integ, n)
+        let n = substeps
+            .as_ref()
+            .map_or(1, |e| self.substeps(e, "substeps 4"));
+        Sample {
+            period: p,
+            integrator: integ,
+            substeps: n,
+            plan_substeps: plan_substeps
+                .as_ref()
+                .map_or(n, |e| self.substeps(e, "plan substeps 1")),
+        }
+    }
+
+    /// A number of sub-steps (`substeps N`, `plan substeps M`): a whole number from 1 to
+    /// 1000; 1 where it is not (with E017, `example` in its help).
+    fn substeps(&mut self, e: &Expr, example: &str) -> usize {
+        let v = self
+            .constant(e, "the number of sub-steps")
+            .unwrap_or(f64::NAN);
+        if v >= 1.0 && v.fract() == 0.0 && v <= 1000.0 {
+            return v as usize;
+        }
+        self.diags.push(
+            Diagnostic::error(
+                "E017",
+                e.span(),
+                format!("sub-steps must be a whole number from 1 to 1000, not {v}"),
+            )
+            .label("here")
+            .help(format!("e.g. `{example}`")),
+        );
+        1
     }
 
     pub(super) fn uncertainty(&mut self, s: Option<&Statement>) -> Uncertainty {

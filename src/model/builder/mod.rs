@@ -211,6 +211,8 @@ struct Parts {
     sample_period: f64,
     integrator: Integrator,
     substeps: usize,
+    /// `None`: `substeps`.
+    plan_substeps: Option<usize>,
     uncertainty: Uncertainty,
     solver: SolverHints,
     errors: Vec<BuildError>,
@@ -271,6 +273,7 @@ impl ModelBuilder {
                 sample_period: f64::NAN,
                 integrator: Integrator::Rk4,
                 substeps: 1,
+                plan_substeps: None,
                 uncertainty: Uncertainty::default(),
                 solver: SolverHints::default(),
                 errors: Vec::new(),
@@ -570,6 +573,13 @@ impl ModelBuilder {
         });
     }
 
+    /// `plan substeps M` of `sample`: the integration steps per period of the controllers'
+    /// predictions (at least 1; `substeps` unless told), e.g. fewer for a stiff plant whose
+    /// simulation wants many.
+    pub fn plan_substeps(&self, substeps: usize) {
+        self.with(|p| p.plan_substeps = Some(substeps.max(1)));
+    }
+
     /// `integrator NAME` of `sample`: how one sub-step is integrated (RK4 unless told).
     pub fn integrator(&self, integrator: Integrator) {
         self.with(|p| p.integrator = integrator);
@@ -722,6 +732,7 @@ impl ModelBuilder {
             sample_period: p.sample_period,
             integrator: p.integrator,
             substeps: p.substeps,
+            plan_substeps: p.plan_substeps.unwrap_or(p.substeps),
             terms: p.terms,
             soft,
             uncertainty: p.uncertainty,
