@@ -274,6 +274,21 @@ impl Op {
             Op::Log => [a.recip(), zero, zero],
             Op::Tanh => [one - out * out, zero, zero],
             Op::Powi(2) => [a + a, zero, zero],
+            // The rest of a stiff model's smooth ops (GreenLight's powers, roots and
+            // smoothed switches): through nested duals they cost an eighth of an MPC step
+            // in copies, measured (docs/benchmarks.md, "Planning with one sub-step").
+            Op::Sqrt => [(out + out).recip(), zero, zero],
+            Op::Abs => [if a.re() < 0.0 { -one } else { one }, zero, zero],
+            Op::Sin => [a.cos(), zero, zero],
+            Op::Cos => [-a.sin(), zero, zero],
+            Op::Powi(0) => [zero, zero, zero],
+            Op::Powi(n) => [a.powi(n - 1) * T::from(f64::from(n)), zero, zero],
+            Op::Powf(bits) => {
+                let exponent = f64::from_bits(bits);
+                [a.powf(exponent - 1.0) * T::from(exponent), zero, zero]
+            }
+            Op::Pow => [b * out / a, out * a.ln(), zero],
+            Op::Mod => [one, T::from(-(a.re() / b.re()).floor()), zero],
             _ => self.partials_from_duals(a, b, c),
         }
     }
@@ -319,6 +334,10 @@ mod tests {
         Op::Powi(3),
         Op::Powi(-2),
         Op::Powf(0.5f64.to_bits()),
+        Op::Powi(0),
+        Op::Powi(1),
+        Op::Powf(0.33f64.to_bits()),
+        Op::Powf(2.5f64.to_bits()),
         Op::Min,
         Op::Max,
         Op::Lt,

@@ -40,6 +40,7 @@
 
 use nalgebra::{DMatrix, DVector, Dyn, LU};
 
+use super::dense_lu::DenseLu;
 use super::eigen_split::{EigenSplit, SplitMatrix};
 use super::sparse_lu::SparseOrder;
 use super::Layout;
@@ -832,6 +833,11 @@ pub(crate) struct ImplicitDerivatives {
     p_w: DMatrix<f64>,
     /// `W_z`, `n_w × n_wrt`.
     w_z: DMatrix<f64>,
+    /// The factors of `G_W`'s diagonal blocks, from the last [`Self::first_order`]: the
+    /// same factors solve for `W_z` and, transposed, for the adjoint.
+    block_factors: Vec<DenseLu<f64>>,
+    /// `block` values of scratch for the solves.
+    scratch: Vec<f64>,
     /// `T = [I; W_z]`, column by column, and `∇²L T` in the same layout.
     directions: Vec<f64>,
     product: Vec<f64>,
@@ -867,6 +873,8 @@ impl ImplicitDerivatives {
             g_w: DMatrix::zeros(nw, nw),
             p_w: DMatrix::zeros(m, nw),
             w_z: DMatrix::zeros(nw, n),
+            block_factors: Vec::with_capacity(nw / block.max(1)),
+            scratch: vec![0.0; block],
             directions: vec![0.0; (n + nw) * n],
             product: vec![0.0; (n + nw) * n],
             gradient: vec![0.0; n + nw],
@@ -904,13 +912,19 @@ impl ImplicitDerivatives {
         // G_W W_z = −G_z, block by block from the first sub-step.
         let b = self.block;
         let mut w_z = DMatrix::from_fn(nw, n, |r, c| -at(m + r, c));
+        self.block_factors.clear();
         for k in 0..nw / b {
             let mut rhs = w_z.rows(k * b, b).clone_owned();
             for l in (0..k).filter(|&l| self.coupled[k][l]) {
                 rhs -= self.g_w.view((k * b, l * b), (b, b)) * w_z.rows(l * b, b);
             }
-            let lu = self.g_w.view((k * b, k * b), (b, b)).clone_owned().lu();
-            w_z.rows_mut(k * b, b).copy_from(&lu.solve(&rhs)?);
+            let diagonal = (0..b * b).map(|i| self.g_w[(k * b + i / b, k * b + i % b)]);
+            let lu = DenseLu::factor(diagonal.collect(), b)?;
+            for column in rhs.as_mut_slice().chunks_exact_mut(b) {
+                lu.solve(column, &mut self.scratch);
+            }
+            w_z.rows_mut(k * b, b).copy_from(&rhs);
+            self.block_factors.push(lu);
         }
         self.result.values.copy_from_slice(&e.values[..m]);
         let dp = p_z + &self.p_w * &w_z;
@@ -923,8 +937,9 @@ impl ImplicitDerivatives {
         Some(())
     }
 
-    /// The adjoint `μ` of `G_Wᵀ μ = −P_Wᵀ λ`, block by block from the last sub-step.
-    fn adjoint(&self, lambda: &[f64]) -> Option<DVector<f64>> {
+    /// The adjoint `μ` of `G_Wᵀ μ = −P_Wᵀ λ`, block by block from the last sub-step, with
+    /// the blocks' factors of [`Self::first_order`].
+    fn adjoint(&mut self, lambda: &[f64]) -> DVector<f64> {
         let b = self.block;
         let blocks = self.g_w.nrows() / b;
         let lambda = DVector::from_column_slice(lambda);
@@ -934,10 +949,10 @@ impl ImplicitDerivatives {
             for l in (k + 1..blocks).filter(|&l| self.coupled[l][k]) {
                 rhs -= self.g_w.view((l * b, k * b), (b, b)).transpose() * mu.rows(l * b, b);
             }
-            let lu = self.g_w.view((k * b, k * b), (b, b)).transpose().lu();
-            mu.rows_mut(k * b, b).copy_from(&lu.solve(&rhs)?);
+            self.block_factors[k].solve_transpose(rhs.as_mut_slice(), &mut self.scratch);
+            mu.rows_mut(k * b, b).copy_from(&rhs);
         }
-        Some(mu)
+        mu
     }
 
     /// Values and Jacobian of the step at the base point.
@@ -955,9 +970,7 @@ impl ImplicitDerivatives {
         }
         let (m, n, nw) = (step.n_outputs(), self.n_wrt, step.n_w);
         let nf = n + nw;
-        let Some(mu) = self.adjoint(&weights[..m]) else {
-            return self.fail();
-        };
+        let mu = self.adjoint(&weights[..m]);
         self.weights[..m].copy_from_slice(&weights[..m]);
         self.weights[m..].copy_from_slice(mu.as_slice());
         // T = [I; W_z], column by column.
