@@ -34,6 +34,10 @@ impl Solver for Scripted {
 fn setup(script: Vec<Option<SolveStatus>>) -> (Arc<Plant>, Mpc) {
     let model = ghm::lang::load(Path::new("models/lettuce.ghm"))
         .unwrap_or_else(|e| panic!("{}", e.render()));
+    setup_with(model, script)
+}
+
+fn setup_with(model: ghm::lang::Model, script: Vec<Option<SolveStatus>>) -> (Arc<Plant>, Mpc) {
     let plant = Arc::new(Plant::new(model));
     let solver = Scripted {
         inner: Sqp::default(),
@@ -69,6 +73,36 @@ fn run(plant: &Plant, mpc: &mut Mpc, steps: usize) -> Vec<(Option<String>, Vec<f
         u_prev = d.input;
     }
     out
+}
+
+#[test]
+fn a_model_planned_with_fewer_sub_steps_is_solved_as_simulated_before_any_fallback_input() {
+    let text = std::fs::read_to_string("models/lettuce.ghm").unwrap();
+    let sample = "sample step_s [s] integrator rk4 substeps 4";
+    assert!(text.contains(sample));
+    let text = text.replace(sample, &format!("{sample} plan substeps 2"));
+    let model =
+        ghm::lang::load_str("lettuce.ghm", &text).unwrap_or_else(|e| panic!("{}", e.render()));
+    // Step 0: cold solve ok. Step 1: the warm and the cold solve of the planning problem
+    // fail; the cold solve on the model as simulated succeeds.
+    let failed = Some(SolveStatus::NumericalError);
+    let (plant, mut mpc) = setup_with(model, vec![None, failed, failed, None, None]);
+    assert_eq!(mpc.ocp().plant().model.substeps, 2);
+    let log = run(&plant, &mut mpc, 3);
+    assert_eq!(log[0].0, None);
+    assert_eq!(log[1].0.as_deref(), Some("simulation_model"));
+    assert_ne!(
+        log[1].2, "numerical_error",
+        "the simulation model's status is reported"
+    );
+    // Step 2 restarts warm, on the planning problem, from that solution.
+    assert_eq!(log[2].0, None);
+    // Without `plan substeps` the same failures end in the shifted plan.
+    let (plant, mut mpc) = setup(vec![None, failed, failed, None]);
+    assert_eq!(
+        run(&plant, &mut mpc, 2)[1].0.as_deref(),
+        Some("shifted_plan")
+    );
 }
 
 #[test]

@@ -96,6 +96,9 @@ crate::choice! {
     pub enum Fallback {
         /// The warm-started solve failed and a cold start succeeded.
         ColdStart = "cold_start",
+        /// The planning model's solves failed and a cold start on the model the plant is
+        /// simulated with succeeded (a model with `plan substeps` of its own).
+        SimulationModel = "simulation_model",
         /// No solve succeeded: the previous plan, shifted by the steps since it was made.
         ShiftedPlan = "shifted_plan",
         /// No solve succeeded and no plan was left: the guide's own input.

@@ -20,9 +20,14 @@
 //!    and without guidance, on a model with a `rule` on every input, from a roll-out of
 //!    those rules, a plan of the growers' (measured in `docs/benchmarks.md`, "Economic MPC
 //!    of the GreenLight tomato, priced on its fruit");
-//! 2. `shifted_plan`: apply the second input of the last successful plan;
-//! 3. `guide_input` (RL-guided MPC only): the guide's own input;
-//! 4. `hold_input`: hold the previous input (within the bounds and rate limits).
+//! 2. `simulation_model` (plain MPC on a model that plans with fewer sub-steps than it
+//!    simulates with, [`Plant::planning`]): solve cold once more on the model integrated
+//!    as the plant is, whose problem the coarse one only approximates (on the GreenLight
+//!    tomato a state where one sub-step's problem ran out of iterations solved in 121 with
+//!    four);
+//! 3. `shifted_plan`: apply the second input of the last successful plan;
+//! 4. `guide_input` (RL-guided MPC only): the guide's own input;
+//! 5. `hold_input`: hold the previous input (within the bounds and rate limits).
 //!
 //! The step's record names the path taken, so a season's log shows every fallback.
 //!
@@ -87,6 +92,11 @@ pub struct Mpc {
     /// The model's own rules, where every input has one, and the nominal model they are
     /// rolled out on: a cold start tries their roll-out first.
     rules: Option<(Rules, RollOut)>,
+    /// Which bounds of the soft bands the problems measure.
+    bands: Bands,
+    /// The plant as simulated, where MPC plans with fewer sub-steps, and its problem,
+    /// built on first use: the last resort of plain MPC before a fallback input.
+    simulation_model: Option<(Arc<Plant>, Option<Ocp>)>,
 }
 
 impl Mpc {
@@ -97,7 +107,9 @@ impl Mpc {
         horizon: usize,
         solver: Box<dyn Solver>,
     ) -> Result<Mpc, OcpError> {
-        let plant = plant.planning();
+        let simulated = plant;
+        let plant = simulated.planning();
+        let simulation_model = (!Arc::ptr_eq(&plant, &simulated)).then_some((simulated, None));
         let rules = Rules::new(Arc::clone(&plant))
             .ok()
             .map(|rules| (rules, RollOut::new(Arc::clone(&plant))));
@@ -116,6 +128,8 @@ impl Mpc {
             solver,
             guidance: None,
             rules,
+            bands: Bands::Planning,
+            simulation_model,
         })
     }
 
@@ -126,6 +140,10 @@ impl Mpc {
     pub fn with_bands(mut self, bands: Bands) -> Result<Mpc, OcpError> {
         let plant = Arc::clone(self.ocp.plant());
         self.ocp = Ocp::with_bands(plant, self.ocp.horizon(), bands)?;
+        self.bands = bands;
+        if let Some((_, ocp)) = &mut self.simulation_model {
+            *ocp = None;
+        }
         Ok(self)
     }
 
@@ -314,8 +332,21 @@ impl Mpc {
     /// Writes into the starting point the roll-out of the model's rules from the measured
     /// state over the forecast; false (nothing written) where some input has no rule.
     fn rules_roll_out(&mut self, observation: &Observation) -> Result<bool, ControlError> {
-        let Some((rules, roll_out)) = self.rules.as_mut() else {
+        let Some(inputs) = self.rules_inputs(observation)? else {
             return Ok(false);
+        };
+        self.ocp.rollout(&inputs, &mut self.start_x);
+        Ok(true)
+    }
+
+    /// The inputs of the model's rules over the horizon from the measured state; `None`
+    /// where some input has no rule.
+    fn rules_inputs(
+        &mut self,
+        observation: &Observation,
+    ) -> Result<Option<Vec<f64>>, ControlError> {
+        let Some((rules, roll_out)) = self.rules.as_mut() else {
+            return Ok(None);
         };
         let mut inputs = Vec::with_capacity(self.ocp.horizon() * observation.previous_input.len());
         roll_out.horizon(
@@ -325,8 +356,42 @@ impl Mpc {
             self.ocp.horizon(),
             &mut inputs,
         )?;
-        self.ocp.rollout(&inputs, &mut self.start_x);
-        Ok(true)
+        Ok(Some(inputs))
+    }
+
+    /// Plain MPC's last resort where it plans with fewer sub-steps than the plant is
+    /// simulated with: the step's problem on the model integrated as the plant is (the
+    /// model's own terminal terms, not settings changed through [`Mpc::ocp_mut`]), solved
+    /// cold from the rules' roll-out where every input has a rule, else from the held
+    /// input. `None` where there is no such model, or under guidance (which prepares the
+    /// planning problem only). Its solution has the planning problem's layout.
+    fn solve_on_simulation_model(
+        &mut self,
+        observation: &Observation,
+    ) -> Result<Option<Solution>, ControlError> {
+        if self.guidance.is_some() || self.simulation_model.is_none() {
+            return Ok(None);
+        }
+        let inputs = self.rules_inputs(observation)?;
+        let (horizon, bands) = (self.ocp.horizon(), self.bands);
+        let Some((plant, built)) = self.simulation_model.as_mut() else {
+            return Ok(None);
+        };
+        let ocp = match built {
+            Some(ocp) => ocp,
+            None => built.insert(Ocp::with_bands(Arc::clone(plant), horizon, bands)?),
+        };
+        ocp.set_problem(
+            observation.step,
+            observation.state,
+            observation.previous_input,
+            &self.forecast,
+        )?;
+        match inputs {
+            Some(inputs) => ocp.rollout(&inputs, &mut self.start_x),
+            None => ocp.initial_point(&mut self.start_x),
+        }
+        Ok(Some(self.solver.solve(ocp, Start::cold(&self.start_x))))
     }
 
     /// The fallback inputs when no solve succeeded.
@@ -447,9 +512,18 @@ impl Controller for Mpc {
             }
             solution = Some(cold);
         }
-        let Some(solution) = solution else {
+        let Some(mut solution) = solution else {
             return Err(ControlError::Other("no solve was attempted".into()));
         };
+        if !solution.status.is_success() {
+            if let Some(simulated) = self.solve_on_simulation_model(observation)? {
+                effort.add(&simulated);
+                if simulated.status.is_success() {
+                    solution = simulated;
+                    fallback = Some(Fallback::SimulationModel);
+                }
+            }
+        }
         let status = solution.status;
         let mut terminal_region = None;
         let input = if status.is_success() {
