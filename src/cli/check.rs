@@ -87,10 +87,10 @@ pub fn run(args: &CheckArgs) -> Result<(), CliError> {
             m.outputs[b.output].info.name, b.lower, b.upper
         ))
     );
-    let planning = if m.plan_substeps == m.substeps {
-        String::new()
-    } else {
+    let planning = if m.plans_with_other_substeps() {
         format!(", controllers predict with {}", m.plan_substeps)
+    } else {
+        String::new()
     };
     println!(
         "  sample period {} s, {} with {} sub-step(s){planning}",

@@ -445,7 +445,7 @@ impl BandsChoice {
     /// The bands for a season of `model` on a plant with this uncertainty.
     pub fn resolve(self, plant: &PlantSpec, model: &crate::lang::Model) -> crate::nlp::Bands {
         use crate::nlp::Bands;
-        let predicted_exactly = plant.uncertainty == 0.0 && model.plan_substeps == model.substeps;
+        let predicted_exactly = plant.uncertainty == 0.0 && !model.plans_with_other_substeps();
         match self {
             BandsChoice::Planning => Bands::Planning,
             BandsChoice::Scoring => Bands::Scoring,

@@ -366,6 +366,12 @@ pub struct Model {
 }
 
 impl Model {
+    /// Whether the controllers predict with other sub-steps than the plant is simulated
+    /// with (`plan substeps`), so that their model only approximates the plant.
+    pub fn plans_with_other_substeps(&self) -> bool {
+        self.plan_substeps != self.substeps
+    }
+
     /// The sizes of its variable groups.
     pub fn layout(&self) -> Layout {
         Layout {

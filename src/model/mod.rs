@@ -346,7 +346,7 @@ impl Plant {
     /// with its `plan substeps`, built once; the plant itself where those are its
     /// `substeps`. Simulations, the season optimum and the checks use the plant itself.
     pub fn planning(self: &Arc<Self>) -> Arc<Plant> {
-        if self.model.plan_substeps == self.model.substeps {
+        if !self.model.plans_with_other_substeps() {
             return Arc::clone(self);
         }
         let plant = self.planning.get_or_init(|| {
