@@ -1,6 +1,7 @@
 //! The MPC's fallback order, exercised with a solver that fails on purpose, and its
 //! forecast padding (built-in model, constant weather: no ../shared needed).
 
+use ghm::control::mpc::COLD_ITERATIONS_BEFORE_SIMULATION_MODEL;
 use ghm::control::{ControlError, Controller, Fallback, Guidance, Mpc, Observation};
 use ghm::model::Plant;
 use ghm::nlp::{Nlp, Ocp};
@@ -11,10 +12,13 @@ use std::path::Path;
 use std::rc::Rc;
 use std::sync::{Arc, Mutex};
 
-/// Runs SQP, then overrides the status with the next scripted one (`None`: keep it).
+/// Runs SQP, then overrides the status with the next scripted one (`None`: keep it); it
+/// records the iteration cap each solve ran under.
 struct Scripted {
     inner: Sqp,
     script: Rc<RefCell<VecDeque<Option<SolveStatus>>>>,
+    limit: Option<usize>,
+    caps: Rc<RefCell<Vec<Option<usize>>>>,
 }
 
 impl Solver for Scripted {
@@ -22,7 +26,12 @@ impl Solver for Scripted {
         "scripted"
     }
 
+    fn set_iteration_limit(&mut self, limit: Option<usize>) {
+        self.limit = limit;
+    }
+
     fn solve(&mut self, nlp: &mut dyn Nlp, start: Start<'_>) -> Solution {
+        self.caps.borrow_mut().push(self.limit);
         let mut s = self.inner.solve(nlp, start);
         if let Some(Some(status)) = self.script.borrow_mut().pop_front() {
             s.status = status;
@@ -32,19 +41,33 @@ impl Solver for Scripted {
 }
 
 fn setup(script: Vec<Option<SolveStatus>>) -> (Arc<Plant>, Mpc) {
+    let (plant, mpc, _) = setup_recording(script);
+    (plant, mpc)
+}
+
+/// [`setup`], with the caps the solves ran under.
+fn setup_recording(script: Vec<Option<SolveStatus>>) -> (Arc<Plant>, Mpc, Caps) {
     let model = ghm::lang::load(Path::new("models/lettuce.ghm"))
         .unwrap_or_else(|e| panic!("{}", e.render()));
     setup_with(model, script)
 }
 
-fn setup_with(model: ghm::lang::Model, script: Vec<Option<SolveStatus>>) -> (Arc<Plant>, Mpc) {
+type Caps = Rc<RefCell<Vec<Option<usize>>>>;
+
+fn setup_with(
+    model: ghm::lang::Model,
+    script: Vec<Option<SolveStatus>>,
+) -> (Arc<Plant>, Mpc, Caps) {
     let plant = Arc::new(Plant::new(model));
+    let caps = Caps::default();
     let solver = Scripted {
         inner: Sqp::default(),
         script: Rc::new(RefCell::new(script.into())),
+        limit: None,
+        caps: caps.clone(),
     };
     let mpc = Mpc::new(plant.clone(), 4, Box::new(solver)).unwrap();
-    (plant, mpc)
+    (plant, mpc, caps)
 }
 
 /// Runs `steps` MPC steps on constant weather; returns each step's fallback and input.
@@ -86,9 +109,12 @@ fn a_model_planned_with_fewer_sub_steps_is_solved_as_simulated_before_any_fallba
     // Step 0: cold solve ok. Step 1: the warm and the cold solve of the planning problem
     // fail; the cold solve on the model as simulated succeeds.
     let failed = Some(SolveStatus::NumericalError);
-    let (plant, mut mpc) = setup_with(model, vec![None, failed, failed, None, None]);
+    let (plant, mut mpc, caps) = setup_with(model, vec![None, failed, failed, None, None]);
     assert_eq!(mpc.ocp().plant().model.substeps, 2);
     let log = run(&plant, &mut mpc, 3);
+    // Step 1's cold solve on the planning model is capped; the one as simulated is not.
+    let cold_cap = Some(COLD_ITERATIONS_BEFORE_SIMULATION_MODEL);
+    assert_eq!(caps.borrow()[2..4], [cold_cap, None]);
     assert_eq!(log[0].0, None);
     assert_eq!(log[1].0.as_deref(), Some("simulation_model"));
     assert_ne!(
@@ -97,12 +123,14 @@ fn a_model_planned_with_fewer_sub_steps_is_solved_as_simulated_before_any_fallba
     );
     // Step 2 restarts warm, on the planning problem, from that solution.
     assert_eq!(log[2].0, None);
-    // Without `plan substeps` the same failures end in the shifted plan.
-    let (plant, mut mpc) = setup(vec![None, failed, failed, None]);
+    // Without `plan substeps` the same failures end in the shifted plan, the cold solve
+    // uncapped.
+    let (plant, mut mpc, caps) = setup_recording(vec![None, failed, failed, None]);
     assert_eq!(
         run(&plant, &mut mpc, 2)[1].0.as_deref(),
         Some("shifted_plan")
     );
+    assert_eq!(caps.borrow()[2], None);
 }
 
 #[test]

@@ -24,7 +24,9 @@
 //!    simulates with, [`Plant::planning`]): solve cold once more on the model integrated
 //!    as the plant is, whose problem the coarse one only approximates (on the GreenLight
 //!    tomato a state where one sub-step's problem ran out of iterations solved in 121 with
-//!    four);
+//!    four). Where this fallback exists, the cold starts of step 1 are capped at
+//!    [`COLD_ITERATIONS_BEFORE_SIMULATION_MODEL`] iterations, so a step does not spend the
+//!    solver's whole budget twice on the coarse problem before it;
 //! 3. `shifted_plan`: apply the second input of the last successful plan;
 //! 4. `guide_input` (RL-guided MPC only): the guide's own input;
 //! 5. `hold_input`: hold the previous input (within the bounds and rate limits).
@@ -70,6 +72,14 @@ pub trait Guidance: Send {
     /// The terminal region's state at a solution, for the step record.
     fn region_status(&self, ocp: &Ocp, x: &[f64]) -> Option<String>;
 }
+
+/// Iteration cap of plain MPC's cold solves on the planning model where the
+/// `simulation_model` fallback follows them. On the GreenLight tomato at 1 h a cold solve
+/// that succeeds took 60 iterations at the season's first step and 25 at a step's cold
+/// restart (the first two Bleiswijk days); each of the 14 failed steps of the 60-day season
+/// without this cap spent the solver's 1000 on each of two cold solves before the fallback,
+/// 16 to 37 s a step. The cap is over three times the successful solves.
+pub const COLD_ITERATIONS_BEFORE_SIMULATION_MODEL: usize = 200;
 
 /// The economic MPC controller.
 pub struct Mpc {
@@ -316,15 +326,28 @@ impl Mpc {
                 return Ok((guided, effort));
             }
         }
+        // Plain MPC with the simulation model behind it caps its cold solves here.
+        let limit = (self.guidance.is_none() && self.simulation_model.is_some())
+            .then_some(COLD_ITERATIONS_BEFORE_SIMULATION_MODEL);
         if self.guidance.is_none() && self.rules_roll_out(observation)? {
-            let ruled = self.solver.solve(&mut self.ocp, Start::cold(&self.start_x));
+            let ruled = solve_capped(
+                self.solver.as_mut(),
+                limit,
+                &mut self.ocp,
+                Start::cold(&self.start_x),
+            );
             effort.add(&ruled);
             if ruled.status.is_success() {
                 return Ok((ruled, effort));
             }
         }
         self.ocp.initial_point(&mut self.start_x);
-        let plain = self.solver.solve(&mut self.ocp, Start::cold(&self.start_x));
+        let plain = solve_capped(
+            self.solver.as_mut(),
+            limit,
+            &mut self.ocp,
+            Start::cold(&self.start_x),
+        );
         effort.add(&plain);
         Ok((plain, effort))
     }
