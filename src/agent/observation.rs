@@ -99,6 +99,33 @@ pub fn input_from_action(
     }
 }
 
+/// The action that maps to `input` from `previous` ([`input_from_action`]'s inverse where
+/// the step from `previous` keeps the rate limit): `a = clip((u − u_prev)/δu, −1, 1)`, 0
+/// for an input whose scale is 0. A teacher's decision as the label of an imitated action.
+///
+/// ```
+/// use ghm::agent::observation::{action_from_input, input_from_action};
+///
+/// let (scale, lower, upper) = ([15.0], [0.0], [150.0]);
+/// let mut a = [0.0];
+/// action_from_input(&[50.0], &[57.5], &scale, &mut a);
+/// assert_eq!(a, [0.5]);
+/// let mut u = [0.0];
+/// input_from_action(&[50.0], &a, &scale, &lower, &upper, &mut u);
+/// assert_eq!(u, [57.5]);
+/// action_from_input(&[50.0], &[0.0], &scale, &mut a); // beyond the rate limit: clipped
+/// assert_eq!(a, [-1.0]);
+/// ```
+pub fn action_from_input(previous: &[f64], input: &[f64], scale: &[f64], action: &mut [f64]) {
+    for (i, a) in action.iter_mut().enumerate() {
+        *a = if scale[i] > 0.0 {
+            ((input[i] - previous[i]) / scale[i]).clamp(-1.0, 1.0)
+        } else {
+            0.0
+        };
+    }
+}
+
 /// Names of the observation entries of an environment over `model`: the outputs,
 /// `prev_<input>` per input, `step`, and the disturbances.
 pub fn observation_names(model: &Model) -> Vec<String> {

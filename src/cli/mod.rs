@@ -6,6 +6,7 @@ mod args;
 mod check;
 mod compile;
 mod completions;
+mod distill;
 mod import;
 mod mpc;
 mod optimum;
@@ -127,6 +128,9 @@ enum Command {
     Policy(policy::PolicyArgs),
     /// Fit the value network of RL-guided MPC to a guide's returns.
     Value(value::ValueArgs),
+    /// Distil a controller (MPC at a long horizon) into a policy with DAgger: a guide for
+    /// RL-guided MPC (resumable).
+    Distill(distill::DistillArgs),
     /// Run a season of RL-guided MPC (learned terminal cost, terminal region, guide warm start).
     Rlmpc(rlmpc::RlmpcArgs),
     /// Run every season of a study file (controllers × horizons × scenarios), in parallel
@@ -160,6 +164,7 @@ pub fn main() -> i32 {
         Command::Train(a) => train::run(&a),
         Command::Policy(a) => policy::run(&a),
         Command::Value(a) => value::run(&a),
+        Command::Distill(a) => distill::run(&a),
         Command::Rlmpc(a) => rlmpc::run(&a),
         Command::Study(a) => study::run(&a),
         Command::Report(a) => report::run(&a),

@@ -31,6 +31,10 @@ const RUN_FILES: &[&str] = &[
     "checkpoint.previous",
     "checkpoint.partial",
     "mpc",
+    "labels",
+    "student.json",
+    "distill_curve.csv",
+    "distill_curve.png",
 ];
 
 /// A claimed run folder; see the [module documentation](self).
@@ -141,6 +145,18 @@ impl RunFolder {
     pub fn continue_in(dir: &Path) -> Result<RunFolder, JobError> {
         std::fs::create_dir_all(dir).map_err(io_err(dir))?;
         let spec = recorded(dir).map_or(serde_json::Value::Null, |(_, spec)| spec);
+        let folder = RunFolder {
+            dir: dir.to_path_buf(),
+            spec,
+        };
+        folder.mark("running", None)?;
+        Ok(folder)
+    }
+
+    /// Claims `dir` to carry on the run in it with `spec` (which extends the one its
+    /// `run.json` records: a distillation given more iterations), keeping its files.
+    pub fn continue_as(dir: &Path, spec: serde_json::Value) -> Result<RunFolder, JobError> {
+        std::fs::create_dir_all(dir).map_err(io_err(dir))?;
         let folder = RunFolder {
             dir: dir.to_path_buf(),
             spec,

@@ -12,6 +12,9 @@
 //! job can be recognised and never run again.
 
 pub mod build;
+#[cfg(feature = "learn")]
+#[cfg_attr(docsrs, doc(cfg(feature = "learn")))]
+pub mod distill;
 pub mod folder;
 pub mod optimum_checkpoint;
 pub mod output;

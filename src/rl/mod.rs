@@ -12,14 +12,19 @@
 //! * `sac`: networks, Adam, the gradient step, the training loop and its checkpoints
 //!   (feature `learn`);
 //! * `value_fit`: the value network regression of RL-guided MPC (feature `learn`);
+//! * `imitation`: the regression of an actor onto a teacher's actions, policy
+//!   distillation's learning step (feature `learn`);
 //! * [`error`]: the error type [`RlError`].
 //!
-//! Architecture invariant: burn stays inside `sac` and `value_fit`; everything that leaves this room
+//! Architecture invariant: burn stays inside `sac`, `value_fit` and `imitation`; everything that leaves this room
 //! (a [`PolicyFile`]) is plain weights for the [`nn`](crate::nn) room.
 
 pub mod buffer;
 pub mod env;
 pub mod error;
+#[cfg(feature = "learn")]
+#[cfg_attr(docsrs, doc(cfg(feature = "learn")))]
+pub mod imitation;
 #[cfg(feature = "learn")]
 #[cfg_attr(docsrs, doc(cfg(feature = "learn")))]
 pub mod sac;

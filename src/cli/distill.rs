@@ -1,0 +1,95 @@
+//! `ghm distill`: a policy taught by a controller with DAgger (by default MPC at 6 h).
+//! The flags map onto a distillation job (`job::distill`); run again with the same flags
+//! and `--out`, a stopped distillation continues from its last finished iteration.
+
+use crate::cli::args::WeatherArgs;
+use crate::cli::mpc::NlpArgs;
+use crate::cli::CliError;
+use crate::job::distill::{run_distill_job, DistillSpec, DEFAULT_STOCHASTIC_UNCERTAINTY};
+use crate::job::{ControllerSpec, JobOptions};
+use crate::rl::imitation::ImitationConfig;
+use clap::Args;
+use std::path::PathBuf;
+
+#[derive(Debug, Args)]
+pub struct DistillArgs {
+    /// The model file (.ghm).
+    pub file: PathBuf,
+    /// The teacher's prediction horizon (economic MPC): `6h`, `90min`, or a number of
+    /// steps.
+    #[arg(long, value_name = "H", default_value = "6h")]
+    pub teacher_horizon: String,
+    #[command(flatten)]
+    pub nlp: NlpArgs,
+    #[command(flatten)]
+    pub weather: WeatherArgs,
+    /// DAgger iterations, the teacher's own roll-outs first.
+    #[arg(long, value_name = "N", default_value_t = DistillSpec::default().iterations)]
+    pub iterations: usize,
+    /// Roll-outs per iteration (the first noise-free), each labelled by the teacher.
+    #[arg(long, value_name = "N", default_value_t = DistillSpec::default().roll_outs)]
+    pub roll_outs: usize,
+    /// Standard deviation of the noise on the applied actions (action units, [−1, 1]).
+    #[arg(long, value_name = "SIGMA", default_value_t = DistillSpec::default().noise)]
+    pub noise: f64,
+    /// Roll out on perturbed plants (parameters drawn per roll-out with --uncertainty).
+    #[arg(long)]
+    pub stochastic: bool,
+    /// Parametric uncertainty δ of the perturbed plants [default: 0.05].
+    #[arg(long, value_name = "DELTA")]
+    pub uncertainty: Option<f64>,
+    /// Passes over the labels at each iteration's fit.
+    #[arg(long, value_name = "N", default_value_t = ImitationConfig::default().epochs)]
+    pub epochs: usize,
+    /// Seed of the student's weights, the noise, the shuffles and the parameter draws.
+    #[arg(long, value_name = "S", default_value_t = DistillSpec::default().seed)]
+    pub seed: u64,
+    /// Roll-outs labelled at once [default: the machine's cores].
+    #[arg(long, value_name = "N")]
+    pub threads: Option<usize>,
+    /// Run folder.
+    #[arg(long, value_name = "DIR", default_value = "runs/distill")]
+    pub out: PathBuf,
+    /// Replace the files of an earlier run in the --out folder (otherwise refused; the
+    /// same distillation stopped halfway continues instead).
+    #[arg(long)]
+    pub overwrite: bool,
+}
+
+pub fn run(args: &DistillArgs) -> Result<(), CliError> {
+    let threads = match args.threads {
+        Some(0) => return Err(CliError::Argument("--threads must be at least 1".into())),
+        Some(n) => n,
+        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+    };
+    let spec = DistillSpec {
+        model: args.file.clone(),
+        weather: args.weather.spec(),
+        teacher: ControllerSpec::Mpc(args.nlp.mpc(&args.teacher_horizon)),
+        stochastic: args.stochastic,
+        uncertainty: if args.stochastic {
+            args.uncertainty.unwrap_or(DEFAULT_STOCHASTIC_UNCERTAINTY)
+        } else {
+            0.0
+        },
+        seed: args.seed,
+        iterations: args.iterations,
+        roll_outs: args.roll_outs,
+        noise: args.noise,
+        fit: ImitationConfig {
+            epochs: args.epochs,
+            ..ImitationConfig::default()
+        },
+    };
+    let options = JobOptions {
+        overwrite: args.overwrite,
+        verbose: true,
+    };
+    Ok(run_distill_job(
+        &spec,
+        &args.out,
+        &options,
+        !args.overwrite,
+        threads,
+    )?)
+}

@@ -1,0 +1,226 @@
+//! The roll-outs of a distillation: seasons on the agent's environment driven by the
+//! teacher or the student, every state labelled by a teacher of the roll-out's own, run
+//! `threads` at a time; and the student's evaluation.
+
+use super::{Job, MAX_ITERATIONS};
+use crate::agent::observation::{action_from_input, action_scale, observation_names};
+use crate::agent::PolicyFile;
+use crate::control::{Controller, Observation};
+use crate::job::{build_controller, JobError};
+use crate::model::Plant;
+use crate::rl::imitation::Demonstrations;
+use crate::rl::sac::agent::standard_normal;
+use crate::rl::{Env, RlError};
+use crate::sim::season::{derived_seed, UncertaintyDraw};
+use crate::sim::weather::Weather;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+
+/// The roll-outs of one iteration, in roll-out order.
+pub(super) struct Labelled {
+    pub(super) demonstrations: Demonstrations,
+    /// Roll-out of each label.
+    pub(super) roll_out: Vec<usize>,
+    /// Reward of the first (noise-free) roll-out.
+    pub(super) first_reward: f64,
+    pub(super) failed: usize,
+}
+
+/// Evaluation draws of a stochastic student (its roll-outs are numbered past every
+/// labelling roll-out's).
+const EVALUATION_DRAWS: u64 = 3;
+
+impl Job<'_> {
+    /// The roll-outs of `iteration` (driven by the teacher, or by `student`), labelled by
+    /// the teacher, `threads` at a time; `tick` after every step.
+    pub(super) fn label(
+        &self,
+        iteration: usize,
+        student: Option<&PolicyFile>,
+        tick: &(dyn Fn() + Sync),
+    ) -> Result<Labelled, JobError> {
+        let spec = self.spec;
+        let next = AtomicU64::new(0);
+        let results: Mutex<Vec<Option<Result<RollOut, JobError>>>> =
+            Mutex::new((0..spec.roll_outs).map(|_| None).collect());
+        std::thread::scope(|scope| {
+            for _ in 0..self.threads.min(spec.roll_outs) {
+                scope.spawn(|| loop {
+                    let r = next.fetch_add(1, Ordering::Relaxed) as usize;
+                    if r >= spec.roll_outs {
+                        break;
+                    }
+                    let result = self.roll_out(iteration, r, student, tick);
+                    let failed = result.is_err();
+                    if let Ok(mut slots) = results.lock() {
+                        slots[r] = Some(result);
+                    }
+                    if failed {
+                        next.store(spec.roll_outs as u64, Ordering::Relaxed);
+                    }
+                });
+            }
+        });
+        let slots = results
+            .into_inner()
+            .map_err(|_| JobError::Spec("a roll-out panicked".into()))?;
+        let (width, nu) = (
+            observation_names(&self.plant.model).len(),
+            self.plant.layout.nu,
+        );
+        let mut labelled = Labelled {
+            demonstrations: Demonstrations::new(width, nu),
+            roll_out: Vec::new(),
+            first_reward: f64::NAN,
+            failed: 0,
+        };
+        for (r, slot) in slots.into_iter().enumerate() {
+            let Some(result) = slot else { continue };
+            let roll_out = result?;
+            if r == 0 {
+                labelled.first_reward = roll_out.reward;
+            }
+            labelled.failed += roll_out.failed;
+            let n = roll_out.demonstrations.len();
+            labelled.demonstrations.extend(&roll_out.demonstrations)?;
+            labelled.roll_out.extend(std::iter::repeat_n(r, n));
+        }
+        Ok(labelled)
+    }
+
+    /// Roll-out `r` of `iteration`: one season driven by the teacher (with `student`
+    /// `None`) or the student, the noise added after the first roll-out, every state
+    /// labelled by a teacher of its own.
+    fn roll_out(
+        &self,
+        iteration: usize,
+        r: usize,
+        student: Option<&PolicyFile>,
+        tick: &(dyn Fn() + Sync),
+    ) -> Result<RollOut, JobError> {
+        let spec = self.spec;
+        let index = (iteration * spec.roll_outs + r) as u64;
+        let mut teacher = build_controller(&spec.teacher_run())?.controller;
+        let noise = if r == 0 { 0.0 } else { spec.noise };
+        let mut rng = ChaCha8Rng::seed_from_u64(derived_seed(spec.seed ^ 0x6461_6767, index));
+        let mut driver = |observation: &[f64], label: &[f64], action: &mut [f64]| {
+            match student {
+                Some(policy) => {
+                    let a = policy.action(observation)?;
+                    action.copy_from_slice(&a);
+                }
+                None => action.copy_from_slice(label),
+            }
+            for a in action.iter_mut() {
+                if noise > 0.0 {
+                    *a = (*a + noise * f64::from(standard_normal(&mut rng))).clamp(-1.0, 1.0);
+                }
+            }
+            Ok(())
+        };
+        roll_out(
+            &self.plant,
+            &self.weather,
+            self.steps,
+            spec.draw(index),
+            Some(teacher.as_mut()),
+            &mut driver,
+            tick,
+        )
+    }
+
+    /// The student's reward on a noise-free roll-out of its own: on the nominal plant, or
+    /// the mean over [`EVALUATION_DRAWS`] perturbed ones.
+    pub(super) fn evaluate(&self, policy: &PolicyFile) -> Result<f64, JobError> {
+        let spec = self.spec;
+        let draws: Vec<Option<UncertaintyDraw>> = if spec.stochastic {
+            let past = (MAX_ITERATIONS * spec.roll_outs) as u64;
+            (0..EVALUATION_DRAWS).map(|j| spec.draw(past + j)).collect()
+        } else {
+            vec![None]
+        };
+        let mut sum = 0.0;
+        for draw in &draws {
+            let mut act = |observation: &[f64], _: &[f64], action: &mut [f64]| {
+                action.copy_from_slice(&policy.action(observation)?);
+                Ok(())
+            };
+            sum += roll_out(
+                &self.plant,
+                &self.weather,
+                self.steps,
+                *draw,
+                None,
+                &mut act,
+                &|| {},
+            )?
+            .reward;
+        }
+        Ok(sum / draws.len() as f64)
+    }
+}
+
+/// One roll-out's labels and reward.
+struct RollOut {
+    demonstrations: Demonstrations,
+    reward: f64,
+    failed: usize,
+}
+
+/// How a roll-out sets each step's action: from the observation and the teacher's label.
+type ChooseAction<'a> =
+    dyn FnMut(&[f64], &[f64], &mut [f64]) -> Result<(), crate::agent::AgentError> + 'a;
+
+/// A season on the agent's environment: `act(observation, label, action)` sets each
+/// step's action, the label being the `teacher`'s decision as an action (zeros without a
+/// teacher). A plant that diverges ends the roll-out with what it labelled.
+fn roll_out(
+    plant: &Arc<Plant>,
+    weather: &Weather,
+    steps: usize,
+    draw: Option<UncertaintyDraw>,
+    mut teacher: Option<&mut dyn Controller>,
+    act: &mut ChooseAction<'_>,
+    tick: &(dyn Fn() + Sync),
+) -> Result<RollOut, JobError> {
+    let scale = action_scale(plant).map_err(RlError::from)?;
+    let mut env = Env::new(Arc::clone(plant), weather.clone(), steps, draw)?;
+    let (width, nu) = (env.observation_len(), env.action_len());
+    let ny = plant.model.outputs.len();
+    let mut result = RollOut {
+        demonstrations: Demonstrations::new(width, nu),
+        reward: 0.0,
+        failed: 0,
+    };
+    let mut observation = env.reset().to_vec();
+    let (mut label, mut action) = (vec![0.0; nu], vec![0.0; nu]);
+    for k in 0..steps {
+        if let Some(teacher) = teacher.as_deref_mut() {
+            let forecast = weather.horizon(k, weather.len() - k).unwrap_or(&[]);
+            let decision = teacher
+                .decide(&Observation {
+                    step: k,
+                    state: env.state(),
+                    outputs: &observation[..ny],
+                    previous_input: env.previous_input(),
+                    forecast,
+                })
+                .map_err(|e| JobError::Spec(format!("the teacher at step {k}: {e}")))?;
+            result.failed += usize::from(decision.record.solve_failed());
+            action_from_input(env.previous_input(), &decision.input, &scale, &mut label);
+            result.demonstrations.push(&observation, &label)?;
+        }
+        act(&observation, &label, &mut action).map_err(RlError::from)?;
+        let transition = match env.step(&action) {
+            Ok(t) => t,
+            Err(RlError::Diverged { .. }) => break,
+            Err(e) => return Err(e.into()),
+        };
+        result.reward += transition.reward;
+        observation.copy_from_slice(transition.observation);
+        tick();
+    }
+    Ok(result)
+}

@@ -1,0 +1,122 @@
+//! Policy distillation (`ghm distill`, `job::distill`): DAgger on the lettuce greenhouse's
+//! built-in season (no ../shared needed), taught by MPC at 2 h.
+
+use ghm::agent::PolicyFile;
+use ghm::job::distill::{run_distill_job, DistillSpec};
+use ghm::job::{ControllerSpec, JobOptions, MpcSpec, OptimumSpec, WeatherSpec};
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+
+fn spec(iterations: usize) -> DistillSpec {
+    DistillSpec {
+        model: "models/lettuce.ghm".into(),
+        weather: WeatherSpec {
+            days: Some(2.0),
+            ..WeatherSpec::default()
+        },
+        teacher: ControllerSpec::Mpc(MpcSpec {
+            horizon: "2h".into(),
+            ..MpcSpec::default()
+        }),
+        iterations,
+        roll_outs: 2,
+        ..DistillSpec::default()
+    }
+}
+
+const QUIET: JobOptions = JobOptions {
+    overwrite: false,
+    verbose: false,
+};
+
+/// A fresh folder for one test.
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("ghm-distill-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+fn summary(dir: &Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap()
+}
+
+#[test]
+fn dagger_brings_the_student_closer_to_its_teacher_than_behaviour_cloning() {
+    let out = temp_dir("dagger");
+    run_distill_job(&spec(4), &out, &QUIET, false, 2).unwrap();
+    let summary = summary(&out);
+    let curve = summary["curve"].as_array().unwrap();
+    assert_eq!(curve.len(), 4);
+    let reward = |i: usize, field: &str| curve[i][field].as_f64().unwrap();
+    // Iteration 0 rolls out the teacher: its reward is the teacher's season.
+    let teacher = summary["teacher_reward"].as_f64().unwrap();
+    assert_eq!(teacher, reward(0, "roll_out_reward"));
+    // The student fitted to the teacher's own path only (behaviour cloning) strays from
+    // it; the students fitted to the states they visit themselves come closer.
+    let cloned_gap = (teacher - reward(0, "student_reward")).abs();
+    let last_gap = (teacher - reward(3, "student_reward")).abs();
+    assert!(
+        last_gap < cloned_gap,
+        "teacher {teacher}: behaviour cloning's gap {cloned_gap}, DAgger's after 4 iterations {last_gap}"
+    );
+    // Every roll-out labels every step: 2 roll-outs of 96 half-hour steps an iteration.
+    assert_eq!(curve[3]["labels"].as_u64(), Some(4 * 2 * 96));
+    let labels = std::fs::read_to_string(out.join("labels/iteration-03.csv")).unwrap();
+    assert_eq!(labels.lines().count(), 1 + 2 * 96);
+    // The best student is a policy file for the model, with its evaluation.
+    let policy = PolicyFile::load(&out.join("policy.json")).unwrap();
+    let model = ghm::lang::load(Path::new("models/lettuce.ghm")).unwrap();
+    policy.check_fits(&model, &out.join("policy.json")).unwrap();
+    let best = summary["best"]["student_reward"].as_f64().unwrap();
+    assert_eq!(policy.eval_reward, Some(best));
+    assert!((0..4).all(|i| reward(i, "student_reward") <= best));
+}
+
+#[test]
+fn a_distillation_given_more_iterations_ends_as_one_run_at_once() {
+    let dir = temp_dir("continue");
+    let (stepwise, at_once) = (dir.join("stepwise"), dir.join("at-once"));
+    run_distill_job(&spec(2), &stepwise, &QUIET, true, 1).unwrap();
+    run_distill_job(&spec(3), &stepwise, &QUIET, true, 1).unwrap();
+    run_distill_job(&spec(3), &at_once, &QUIET, true, 2).unwrap();
+    let rewards = |dir: &Path| -> Vec<(f64, f64)> {
+        summary(dir)["curve"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|r| {
+                (
+                    r["roll_out_reward"].as_f64().unwrap(),
+                    r["student_reward"].as_f64().unwrap(),
+                )
+            })
+            .collect()
+    };
+    assert_eq!(rewards(&stepwise).len(), 3);
+    assert_eq!(rewards(&stepwise), rewards(&at_once));
+    let net = |dir: &Path| -> Value {
+        let text = std::fs::read_to_string(dir.join("student.json")).unwrap();
+        serde_json::from_str::<Value>(&text).unwrap()["net"].clone()
+    };
+    assert_eq!(net(&stepwise), net(&at_once));
+    // Another spec in the same folder is refused, not continued.
+    let other = DistillSpec {
+        noise: 0.3,
+        ..spec(3)
+    };
+    let refused = run_distill_job(&other, &stepwise, &QUIET, true, 1).unwrap_err();
+    assert!(refused.to_string().contains("overwrite"), "{refused}");
+}
+
+#[test]
+fn a_teacher_that_plans_a_whole_season_or_no_iteration_is_refused_by_name() {
+    let dir = temp_dir("refused");
+    let optimum = DistillSpec {
+        teacher: ControllerSpec::Optimum(OptimumSpec::default()),
+        ..spec(2)
+    };
+    let e = run_distill_job(&optimum, &dir, &QUIET, false, 1).unwrap_err();
+    assert!(e.to_string().contains("`teacher`"), "{e}");
+    let e = run_distill_job(&spec(0), &dir, &QUIET, false, 1).unwrap_err();
+    assert!(e.to_string().contains("`iterations`"), "{e}");
+}
