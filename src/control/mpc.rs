@@ -77,8 +77,9 @@ pub trait Guidance: Send {
 /// `simulation_model` fallback follows them. On the GreenLight tomato at 1 h a cold solve
 /// that succeeds took 60 iterations at the season's first step and 25 at a step's cold
 /// restart (the first two Bleiswijk days); each of the 14 failed steps of the 60-day season
-/// without this cap spent the solver's 1000 on each of two cold solves before the fallback,
-/// 16 to 37 s a step. The cap is over three times the successful solves.
+/// before the fallback ran two cold solves to the interior point's limit of 500 iterations,
+/// and with the fallback behind them such a step took 16 to 37 s. The cap is over three
+/// times the successful solves.
 pub const COLD_ITERATIONS_BEFORE_SIMULATION_MODEL: usize = 200;
 
 /// The economic MPC controller.
