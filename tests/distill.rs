@@ -2,7 +2,7 @@
 //! built-in season (no ../shared needed), taught by MPC at 2 h.
 
 use ghm::agent::PolicyFile;
-use ghm::job::distill::{run_distill_job, DistillSpec};
+use ghm::job::distill::{run_distill_job, DistillSpec, StartRows};
 use ghm::job::{ControllerSpec, JobOptions, MpcSpec, OptimumSpec, WeatherSpec};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
@@ -106,6 +106,62 @@ fn a_distillation_given_more_iterations_ends_as_one_run_at_once() {
     };
     let refused = run_distill_job(&other, &stepwise, &QUIET, true, 1).unwrap_err();
     assert!(refused.to_string().contains("overwrite"), "{refused}");
+}
+
+#[test]
+fn roll_outs_that_start_elsewhere_label_other_weather_and_keep_the_season_for_evaluation() {
+    let out = temp_dir("start-rows");
+    let spread = DistillSpec {
+        start_rows: Some(StartRows {
+            first: 200,
+            last: 400,
+        }),
+        ..spec(1)
+    };
+    run_distill_job(&spread, &out, &QUIET, false, 2).unwrap();
+    let labels = std::fs::read_to_string(out.join("labels/iteration-00.csv")).unwrap();
+    let header: Vec<&str> = labels.lines().next().unwrap().split(',').collect();
+    let radiation = header.iter().position(|c| *c == "radiation").unwrap();
+    let column = |roll_out: &str| -> Vec<String> {
+        labels
+            .lines()
+            .skip(1)
+            .filter(|l| l.starts_with(&format!("{roll_out},")))
+            .map(|l| l.split(',').nth(radiation).unwrap().to_string())
+            .collect()
+    };
+    // The first roll-out is the season's (as without start rows); the second saw other days.
+    let at_home = temp_dir("start-rows-home");
+    run_distill_job(&spec(1), &at_home, &QUIET, false, 2).unwrap();
+    let home = std::fs::read_to_string(at_home.join("labels/iteration-00.csv")).unwrap();
+    let first_rows: Vec<&str> = labels.lines().take(1 + 96).collect();
+    assert_eq!(first_rows, home.lines().take(1 + 96).collect::<Vec<_>>());
+    assert_ne!(column("0"), column("1"));
+    assert_eq!(
+        summary(&out)["teacher_reward"],
+        summary(&at_home)["teacher_reward"]
+    );
+    // A range that runs past the weather is refused by name before anything runs.
+    let short = temp_dir("start-rows-weather");
+    std::fs::create_dir_all(&short).unwrap();
+    let csv = short.join("ten-rows.csv");
+    let rows = "0,0.0007,5,0.006\n".repeat(10);
+    std::fs::write(
+        &csv,
+        format!("rad_Wm2,co2_out_kgm3,temp_out_C,vapdens_out_kgm3\n{rows}"),
+    )
+    .unwrap();
+    let file = DistillSpec {
+        weather: WeatherSpec {
+            weather: Some(csv),
+            steps: Some(2),
+            ..WeatherSpec::default()
+        },
+        start_rows: Some(StartRows { first: 0, last: 9 }),
+        ..spec(1)
+    };
+    let e = run_distill_job(&file, &temp_dir("start-rows-short"), &QUIET, false, 1).unwrap_err();
+    assert!(e.to_string().contains("`start_rows`"), "{e}");
 }
 
 #[test]

@@ -5,7 +5,9 @@
 use crate::cli::args::WeatherArgs;
 use crate::cli::mpc::NlpArgs;
 use crate::cli::CliError;
-use crate::job::distill::{run_distill_job, DistillSpec, DEFAULT_STOCHASTIC_UNCERTAINTY};
+use crate::job::distill::{
+    run_distill_job, DistillSpec, StartRows, DEFAULT_STOCHASTIC_UNCERTAINTY,
+};
 use crate::job::{ControllerSpec, JobOptions};
 use crate::rl::imitation::ImitationConfig;
 use clap::Args;
@@ -32,6 +34,11 @@ pub struct DistillArgs {
     /// Standard deviation of the noise on the applied actions (action units, [−1, 1]).
     #[arg(long, value_name = "SIGMA", default_value_t = DistillSpec::default().noise)]
     pub noise: f64,
+    /// Start the noisy roll-outs at rows of the weather file drawn from FIRST..LAST (both
+    /// included), each its own, to learn from more of the year than the season; the
+    /// students are still evaluated on the season.
+    #[arg(long, value_name = "FIRST..LAST", value_parser = parse_start_rows)]
+    pub start_rows: Option<StartRows>,
     /// Roll out on perturbed plants (parameters drawn per roll-out with --uncertainty).
     #[arg(long)]
     pub stochastic: bool,
@@ -76,6 +83,7 @@ pub fn run(args: &DistillArgs) -> Result<(), CliError> {
         iterations: args.iterations,
         roll_outs: args.roll_outs,
         noise: args.noise,
+        start_rows: args.start_rows,
         fit: ImitationConfig {
             epochs: args.epochs,
             ..ImitationConfig::default()
@@ -92,4 +100,20 @@ pub fn run(args: &DistillArgs) -> Result<(), CliError> {
         !args.overwrite,
         threads,
     )?)
+}
+
+/// `FIRST..LAST`, two row numbers.
+fn parse_start_rows(text: &str) -> Result<StartRows, String> {
+    let (first, last) = text
+        .split_once("..")
+        .ok_or_else(|| format!("`{text}` is not FIRST..LAST (e.g. 0..5000)"))?;
+    let row = |s: &str| {
+        s.trim()
+            .parse::<usize>()
+            .map_err(|e| format!("`{s}` in `{text}` is not a row number: {e}"))
+    };
+    Ok(StartRows {
+        first: row(first)?,
+        last: row(last)?,
+    })
 }

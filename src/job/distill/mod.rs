@@ -72,8 +72,23 @@ pub struct DistillSpec {
     /// Standard deviation of the Gaussian noise on the applied actions (in `[−1, 1]`
     /// action units) of every roll-out but an iteration's first.
     pub noise: f64,
+    /// Where the noisy roll-outs start: each at a row of the weather (the file's, or the
+    /// built-in generator's run on) drawn uniformly from this range (an iteration's first roll-out keeps `weather`'s season, on which
+    /// the students are evaluated), so the guide learns from more of the year than one
+    /// season. `None`: every roll-out on `weather`'s season.
+    pub start_rows: Option<StartRows>,
     /// The student's network and its fit.
     pub fit: ImitationConfig,
+}
+
+/// A range of the weather file's rows, both ends included.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StartRows {
+    /// The first row a roll-out may start at.
+    pub first: usize,
+    /// The last.
+    pub last: usize,
 }
 
 impl Default for DistillSpec {
@@ -94,6 +109,7 @@ impl Default for DistillSpec {
             iterations: 12,
             roll_outs: 4,
             noise: 0.1,
+            start_rows: None,
             fit: ImitationConfig::default(),
         }
     }
@@ -135,6 +151,15 @@ impl DistillSpec {
                 self.uncertainty,
                 "a stochastic distillation needs a δ in (0, 1)",
             ));
+        }
+        if let Some(rows) = self.start_rows {
+            if rows.first > rows.last {
+                return Err(JobError::field(
+                    "start_rows",
+                    format!("{}..{}", rows.first, rows.last),
+                    "the first row must not come after the last",
+                ));
+            }
         }
         self.fit.check().map_err(JobError::Rl)
     }
@@ -219,10 +244,24 @@ pub fn run_distill_job(
     let plant = Arc::new(Plant::new(load_model(&spec.model)?));
     let steps = spec.weather.steps(&plant.model)?;
     let probe = build_controller(&spec.teacher_run())?;
-    let weather = spec
-        .weather
-        .load(&plant.model, steps, probe.forecast_rows)?;
+    let forecast_rows = probe.forecast_rows;
     drop(probe);
+    let weather = spec.weather.load(&plant.model, steps, forecast_rows)?;
+    if let Some(rows) = spec.start_rows {
+        // The latest start must leave the season and the teacher's forecast in the file.
+        WeatherSpec {
+            start_row: rows.last,
+            ..spec.weather.clone()
+        }
+        .load(&plant.model, steps, forecast_rows)
+        .map_err(|e| {
+            JobError::field(
+                "start_rows",
+                format!("{}..{}", rows.first, rows.last),
+                format!("a roll-out from the last row cannot run: {e}"),
+            )
+        })?;
+    }
     let recorded = json!(spec);
     let checkpoint_path = out.join("student.json");
     let continues = continue_interrupted
@@ -245,6 +284,7 @@ pub fn run_distill_job(
         spec,
         plant,
         weather,
+        forecast_rows,
         steps,
         out,
         threads: threads.max(1),
@@ -257,7 +297,10 @@ pub fn run_distill_job(
 struct Job<'a> {
     spec: &'a DistillSpec,
     plant: Arc<Plant>,
+    /// The season's weather (and the teacher's forecast past its end).
     weather: Weather,
+    /// Rows of forecast the teacher reads past a season's end.
+    forecast_rows: usize,
     steps: usize,
     out: &'a Path,
     threads: usize,

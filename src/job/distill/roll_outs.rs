@@ -6,14 +6,14 @@ use super::{Job, MAX_ITERATIONS};
 use crate::agent::observation::{action_from_input, action_scale, observation_names};
 use crate::agent::PolicyFile;
 use crate::control::{Controller, Observation};
-use crate::job::{build_controller, JobError};
+use crate::job::{build_controller, JobError, WeatherSpec};
 use crate::model::Plant;
 use crate::rl::imitation::Demonstrations;
 use crate::rl::sac::agent::standard_normal;
 use crate::rl::{Env, RlError};
 use crate::sim::season::{derived_seed, UncertaintyDraw};
 use crate::sim::weather::Weather;
-use rand::SeedableRng;
+use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
@@ -91,8 +91,8 @@ impl Job<'_> {
     }
 
     /// Roll-out `r` of `iteration`: one season driven by the teacher (with `student`
-    /// `None`) or the student, the noise added after the first roll-out, every state
-    /// labelled by a teacher of its own.
+    /// `None`) or the student, the noise added after the first roll-out (which also may
+    /// start elsewhere in the weather file), every state labelled by a teacher of its own.
     fn roll_out(
         &self,
         iteration: usize,
@@ -103,6 +103,19 @@ impl Job<'_> {
         let spec = self.spec;
         let index = (iteration * spec.roll_outs + r) as u64;
         let mut teacher = build_controller(&spec.teacher_run())?.controller;
+        let elsewhere = match spec.start_rows.filter(|_| r > 0) {
+            Some(rows) => {
+                let mut draw =
+                    ChaCha8Rng::seed_from_u64(derived_seed(spec.seed ^ 0x726f_7773, index));
+                let start_row = draw.random_range(rows.first..=rows.last);
+                let season = WeatherSpec {
+                    start_row,
+                    ..spec.weather.clone()
+                };
+                Some(season.load(&self.plant.model, self.steps, self.forecast_rows)?)
+            }
+            None => None,
+        };
         let noise = if r == 0 { 0.0 } else { spec.noise };
         let mut rng = ChaCha8Rng::seed_from_u64(derived_seed(spec.seed ^ 0x6461_6767, index));
         let mut driver = |observation: &[f64], label: &[f64], action: &mut [f64]| {
@@ -122,7 +135,7 @@ impl Job<'_> {
         };
         roll_out(
             &self.plant,
-            &self.weather,
+            elsewhere.as_ref().unwrap_or(&self.weather),
             self.steps,
             spec.draw(index),
             Some(teacher.as_mut()),
