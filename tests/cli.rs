@@ -708,3 +708,39 @@ fn import_venlo_makes_a_data_folder_a_season_runs_on() {
     );
     assert!(!err.contains("panicked"), "{err}");
 }
+
+#[test]
+fn distill_refuses_bad_start_rows_and_threads_with_a_message() {
+    let (ok, _, err) = ghm(&["distill", "models/lettuce.ghm", "--start-rows", "5"]);
+    assert!(!ok);
+    assert!(err.contains("is not FIRST..LAST"), "{err}");
+    let (ok, _, err) = ghm(&["distill", "models/lettuce.ghm", "--start-rows", "9..x"]);
+    assert!(!ok);
+    assert!(err.contains("`x` in `9..x` is not a row number"), "{err}");
+    let dir = temp_dir("distill-threads");
+    let out = dir.to_string_lossy().to_string();
+    let (ok, _, err) = ghm(&[
+        "distill",
+        "models/lettuce.ghm",
+        "--threads",
+        "0",
+        "--out",
+        &out,
+    ]);
+    assert!(!ok);
+    assert!(err.contains("--threads must be at least 1"), "{err}");
+    let (ok, _, err) = ghm(&[
+        "distill",
+        "models/lettuce.ghm",
+        "--start-rows",
+        "9..3",
+        "--out",
+        &out,
+    ]);
+    assert!(!ok);
+    assert!(err.contains("--start-rows"), "{err}");
+    assert!(
+        !dir.join("run.json").exists(),
+        "nothing is written for a refused spec"
+    );
+}
