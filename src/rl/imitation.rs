@@ -11,6 +11,7 @@
 //! iterations refine the last student instead of starting over.
 
 use crate::agent::Normalizer;
+use crate::nn::{Activation, Mlp};
 use crate::rl::sac::adam::Adam;
 use crate::rl::sac::net::{to_vec, Net};
 use crate::rl::{AgentError, RlError};
@@ -75,6 +76,14 @@ impl ImitationConfig {
         widths.push(actions);
         Net::init(&widths, &mut ChaCha8Rng::seed_from_u64(seed))
     }
+}
+
+/// A fitted actor as the plain weights of a [`PolicyFile`](crate::agent::PolicyFile)'s
+/// `actor`: its layers with the tanh output that maps it into `[−1, 1]`.
+pub fn actor_weights(actor: &Net) -> Result<Mlp, RlError> {
+    actor
+        .to_mlp(Activation::Tanh)
+        .map_err(|e| RlError::Backend(e.to_string()))
 }
 
 /// Demonstrations: observations (raw, row-major) and the teacher's actions for them.
@@ -151,8 +160,7 @@ impl Demonstrations {
 /// ```
 /// # fn main() -> Result<(), Box<dyn std::error::Error>> {
 /// use ghm::agent::Normalizer;
-/// use ghm::nn::Activation;
-/// use ghm::rl::imitation::{fit_actor, Demonstrations, ImitationConfig};
+/// use ghm::rl::imitation::{actor_weights, fit_actor, Demonstrations, ImitationConfig};
 ///
 /// let mut data = Demonstrations::new(1, 1);
 /// for i in 0..400 {
@@ -165,7 +173,7 @@ impl Demonstrations {
 /// let mut actor = config.new_actor(1, 1, 7);
 /// let losses = fit_actor(&mut actor, &normalizer, &data, &config, 7)?;
 /// assert!(losses[59] < 0.1 * losses[0], "{losses:?}");
-/// let mlp = actor.to_mlp(Activation::Tanh)?;
+/// let mlp = actor_weights(&actor)?;
 /// let mut z = [0.0];
 /// normalizer.normalize(&[8.0], &mut z)?;
 /// assert!(mlp.forward(&z)[0] > 0.8); // cold: heat

@@ -36,8 +36,7 @@ use crate::job::output::{io_err, progress_bar_if, write_atomically};
 use crate::job::{build_controller, load_model, ControllerSpec, JobError, JobOptions, MpcSpec};
 use crate::job::{PlantSpec, RunSpec, WeatherSpec};
 use crate::model::Plant;
-use crate::nn::Activation;
-use crate::rl::imitation::{fit_actor, Demonstrations, ImitationConfig};
+use crate::rl::imitation::{actor_weights, fit_actor, Demonstrations, ImitationConfig};
 use crate::rl::sac::net::Net;
 use crate::rl::RlError;
 use crate::sim::season::{derived_seed, UncertaintyDraw};
@@ -446,10 +445,7 @@ impl Job<'_> {
 
     /// The student of `checkpoint` as a policy file (kept after `iteration`).
     fn policy(&self, checkpoint: &Checkpoint, iteration: usize) -> Result<PolicyFile, JobError> {
-        let actor = checkpoint
-            .net
-            .to_mlp(Activation::Tanh)
-            .map_err(|e| JobError::Rl(RlError::Backend(e.to_string())))?;
+        let actor = actor_weights(&checkpoint.net)?;
         let model = &self.plant.model;
         Ok(PolicyFile {
             model: model.name.clone(),
