@@ -174,12 +174,21 @@ impl DistillSpec {
         })
     }
 
-    /// The teacher as a season spec (it predicts with the nominal model).
+    /// The teacher as a season spec: on the perturbed plant of a stochastic distillation,
+    /// so that it plans as it would there (MPC's `bands = "auto"` backs off to the model's
+    /// `plan` bands on an uncertain plant); it predicts with the nominal model either way.
     fn teacher_run(&self) -> RunSpec {
         RunSpec {
             model: self.model.clone(),
             weather: self.weather.clone(),
-            plant: PlantSpec::NOMINAL,
+            plant: if self.stochastic {
+                PlantSpec {
+                    uncertainty: self.uncertainty,
+                    seed: self.seed,
+                }
+            } else {
+                PlantSpec::NOMINAL
+            },
             controller: self.teacher.clone(),
         }
     }
@@ -464,4 +473,21 @@ fn best_of(curve: &[IterationRecord]) -> Option<&IterationRecord> {
     curve
         .iter()
         .max_by(|a, b| a.student_reward.total_cmp(&b.student_reward))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_stochastic_distillations_teacher_plans_for_an_uncertain_plant() {
+        let nominal = DistillSpec::default();
+        assert_eq!(nominal.teacher_run().plant, PlantSpec::NOMINAL);
+        let stochastic = DistillSpec {
+            stochastic: true,
+            uncertainty: 0.05,
+            ..DistillSpec::default()
+        };
+        assert_eq!(stochastic.teacher_run().plant.uncertainty, 0.05);
+    }
 }
