@@ -3,6 +3,7 @@
 //! from the specs' `Default`), a [`Choice`]'s flag value is parsed by its spec name
 //! ([`choice`]), and a job's error about a spec field is said as its flag ([`flag`]).
 
+use crate::cli::CliError;
 use crate::job::{
     resume_season_job, run_season_job, Choice, JobError, JobOptions, PlantSpec, RunSpec,
     SeasonOutcome, WeatherSpec,
@@ -37,6 +38,16 @@ impl FolderArgs {
         } else {
             run_season_job(spec, out, &options)
         }
+    }
+}
+
+/// The work to run at once that `--threads` gives: at least 1, the number of cores where
+/// it is not given.
+pub fn threads(given: Option<usize>) -> Result<usize, CliError> {
+    match given {
+        Some(0) => Err(CliError::Argument("--threads must be at least 1".into())),
+        Some(n) => Ok(n),
+        None => Ok(std::thread::available_parallelism().map_or(1, |n| n.get())),
     }
 }
 

@@ -2,7 +2,7 @@
 //! The flags map onto a distillation job (`job::distill`); run again with the same flags
 //! and `--out`, a stopped distillation continues from its last finished iteration.
 
-use crate::cli::args::WeatherArgs;
+use crate::cli::args::{self, WeatherArgs};
 use crate::cli::mpc::NlpArgs;
 use crate::cli::CliError;
 use crate::job::distill::{
@@ -64,11 +64,7 @@ pub struct DistillArgs {
 }
 
 pub fn run(args: &DistillArgs) -> Result<(), CliError> {
-    let threads = match args.threads {
-        Some(0) => return Err(CliError::Argument("--threads must be at least 1".into())),
-        Some(n) => n,
-        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
-    };
+    let threads = args::threads(args.threads)?;
     let spec = DistillSpec {
         model: args.file.clone(),
         weather: args.weather.spec(),

@@ -1,5 +1,6 @@
 //! `ghm study`: every season of a study file, in parallel, resumable, into one folder.
 
+use crate::cli::args;
 use crate::cli::CliError;
 use crate::study::{run_study, Shard, StudyOptions};
 use clap::Args;
@@ -31,11 +32,7 @@ pub fn run(args: &StudyArgs) -> Result<(), CliError> {
         Some(text) => Some(Shard::parse(text)?),
         None => Shard::from_slurm()?,
     };
-    let threads = match args.threads {
-        Some(0) => return Err(CliError::Argument("--threads must be at least 1".into())),
-        Some(n) => n,
-        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
-    };
+    let threads = args::threads(args.threads)?;
     let options = StudyOptions {
         threads,
         shard,

@@ -24,7 +24,7 @@
 //!    simulates with, [`Plant::planning`]): solve cold once more on the model integrated
 //!    as the plant is, whose problem the coarse one only approximates (on the GreenLight
 //!    tomato a state where one sub-step's problem ran out of iterations solved in 121 with
-//!    four). Where this fallback exists, the cold starts of step 1 are capped at
+//!    four). Where this fallback exists, the cold starts of fallback 1 are capped at
 //!    [`COLD_ITERATIONS_BEFORE_SIMULATION_MODEL`] iterations, so a step does not spend the
 //!    solver's whole budget twice on the coarse problem before it;
 //! 3. `shifted_plan`: apply the second input of the last successful plan;
@@ -328,7 +328,8 @@ impl Mpc {
             }
         }
         // Plain MPC with the simulation model behind it caps its cold solves here.
-        let limit = (self.guidance.is_none() && self.simulation_model.is_some())
+        let limit = self
+            .simulation_model_follows()
             .then_some(COLD_ITERATIONS_BEFORE_SIMULATION_MODEL);
         if self.guidance.is_none() && self.rules_roll_out(observation)? {
             let ruled = solve_capped(
@@ -383,6 +384,13 @@ impl Mpc {
         Ok(Some(inputs))
     }
 
+    /// Whether a failed step is solved once more on the simulation model: plain MPC (no
+    /// guidance, which prepares the planning problem only) on a model that plans with
+    /// fewer sub-steps than it is simulated with.
+    fn simulation_model_follows(&self) -> bool {
+        self.guidance.is_none() && self.simulation_model.is_some()
+    }
+
     /// Plain MPC's last resort where it plans with fewer sub-steps than the plant is
     /// simulated with: the step's problem on the model integrated as the plant is (the
     /// model's own terminal terms, not settings changed through [`Mpc::ocp_mut`]), solved
@@ -393,7 +401,7 @@ impl Mpc {
         &mut self,
         observation: &Observation,
     ) -> Result<Option<Solution>, ControlError> {
-        if self.guidance.is_some() || self.simulation_model.is_none() {
+        if !self.simulation_model_follows() {
             return Ok(None);
         }
         let inputs = self.rules_inputs(observation)?;

@@ -284,6 +284,16 @@ pub fn progress_bar_if(verbose: bool, len: u64, template: &str) -> ProgressBar {
     }
 }
 
+/// Prints `line` above `bar` where the bar is drawn, plainly where it is hidden (output
+/// that is not a terminal), so that a job's per-step lines reach a log file too.
+pub fn println_beside(bar: &ProgressBar, line: String) {
+    if bar.is_hidden() {
+        println!("{line}");
+    } else {
+        bar.println(line);
+    }
+}
+
 /// Writes `summary.json`.
 pub fn write_summary(dir: &Path, summary: &serde_json::Value) -> Result<(), JobError> {
     let path = dir.join("summary.json");

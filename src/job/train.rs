@@ -10,7 +10,9 @@
 //! ran).
 
 use crate::job::folder::{self, RunFolder};
-use crate::job::output::{model_hash, progress_bar_if, write_atomically, write_summary};
+use crate::job::output::{
+    model_hash, println_beside, progress_bar_if, write_atomically, write_summary,
+};
 use crate::job::{load_model, JobError, JobOptions, WeatherSpec};
 use crate::model::Plant;
 use crate::report::plot::{draw_xy, Line};
@@ -303,11 +305,7 @@ pub fn train(
         last = Some(record.reward);
         let line = describe(&record, &unit);
         if verbose {
-            if bar.is_hidden() {
-                println!("{line}");
-            } else {
-                bar.println(line);
-            }
+            println_beside(&bar, line);
         }
         write_curve(dir, trainer.curve())?;
         if record.episode % checkpoint_every == 0 || trainer.is_finished() {

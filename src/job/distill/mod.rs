@@ -10,8 +10,9 @@
 //! Iteration 0 rolls out the teacher; every later one rolls out the last student. Each
 //! roll-out is one season on the environment of `ghm train` (the same observation, action
 //! map and reward); at every state it visits the teacher decides as if it were in charge,
-//! and its decision, as an action, is the label ([`action_from_input`](crate::agent::observation::action_from_input)). The first roll-out
-//! of an iteration is noise-free; the others add Gaussian noise to the applied action, so
+//! and its decision, as an action, is the label
+//! ([`action_from_input`](crate::agent::observation::action_from_input)). The first
+//! roll-out of an iteration is noise-free; the others add Gaussian noise to the applied action, so
 //! the labels cover the states around the path. All labels so far are aggregated and the
 //! student is fitted again, continuing from its weights ([`fit_actor`]); it is then
 //! evaluated on a roll-out of its own. The best student evaluated is `policy.json`.
@@ -32,7 +33,7 @@ mod roll_outs;
 use crate::agent::observation::observation_names;
 use crate::agent::{Normalizer, PolicyFile};
 use crate::job::folder::{self, RunFolder};
-use crate::job::output::{io_err, progress_bar_if, write_atomically};
+use crate::job::output::{io_err, println_beside, progress_bar_if, write_atomically};
 use crate::job::{build_controller, load_model, ControllerSpec, JobError, JobOptions, MpcSpec};
 use crate::job::{PlantSpec, RunSpec, WeatherSpec};
 use crate::model::Plant;
@@ -72,9 +73,10 @@ pub struct DistillSpec {
     /// action units) of every roll-out but an iteration's first.
     pub noise: f64,
     /// Where the noisy roll-outs start: each at a row of the weather (the file's, or the
-    /// built-in generator's run on) drawn uniformly from this range (an iteration's first roll-out keeps `weather`'s season, on which
-    /// the students are evaluated), so the guide learns from more of the year than one
-    /// season. `None`: every roll-out on `weather`'s season.
+    /// built-in generator's run on) drawn uniformly from this range (an iteration's first
+    /// roll-out keeps `weather`'s season, on which the students are evaluated), so the
+    /// guide learns from more of the year than one season. `None`: every roll-out on
+    /// `weather`'s season.
     pub start_rows: Option<StartRows>,
     /// The student's network and its fit.
     pub fit: ImitationConfig,
@@ -220,7 +222,7 @@ pub struct IterationRecord {
     pub fit_loss: f64,
     /// The teacher's solves that failed while it labelled.
     pub failed_labels: usize,
-    /// Wall time of the roll-outs and their labels, and of the fit, in seconds.
+    /// Wall time of the roll-outs and their labels, in seconds.
     pub label_s: f64,
     /// Wall time of the fit and the evaluation, in seconds.
     pub fit_s: f64,
@@ -403,11 +405,7 @@ impl Job<'_> {
                 record.label_s,
                 record.fit_s
             );
-            let best = checkpoint
-                .curve
-                .iter()
-                .map(|r| r.student_reward)
-                .fold(f64::NEG_INFINITY, f64::max);
+            let best = best_of(&checkpoint.curve).map_or(f64::NEG_INFINITY, |b| b.student_reward);
             checkpoint.curve.push(record);
             if student_reward > best {
                 policy
@@ -422,11 +420,7 @@ impl Job<'_> {
             self.write_curve(&checkpoint.curve, &unit)?;
             self.write_summary(&checkpoint.curve, &started)?;
             if self.verbose {
-                if bar.is_hidden() {
-                    println!("{line}");
-                } else {
-                    bar.println(line);
-                }
+                println_beside(&bar, line);
             }
             state = Some(checkpoint);
         }

@@ -3,7 +3,7 @@
 //! `threads` at a time; and the student's evaluation.
 
 use super::{Job, MAX_ITERATIONS};
-use crate::agent::observation::{action_from_input, action_scale, observation_names};
+use crate::agent::observation::{action_from_input, observation_names};
 use crate::agent::PolicyFile;
 use crate::control::{Controller, Observation};
 use crate::job::{build_controller, JobError, WeatherSpec};
@@ -15,8 +15,8 @@ use crate::sim::season::{derived_seed, UncertaintyDraw};
 use crate::sim::weather::Weather;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Arc, Mutex};
+use rayon::prelude::*;
+use std::sync::Arc;
 
 /// The roll-outs of one iteration, in roll-out order.
 pub(super) struct Labelled {
@@ -42,30 +42,16 @@ impl Job<'_> {
         tick: &(dyn Fn() + Sync),
     ) -> Result<Labelled, JobError> {
         let spec = self.spec;
-        let next = AtomicU64::new(0);
-        let results: Mutex<Vec<Option<Result<RollOut, JobError>>>> =
-            Mutex::new((0..spec.roll_outs).map(|_| None).collect());
-        std::thread::scope(|scope| {
-            for _ in 0..self.threads.min(spec.roll_outs) {
-                scope.spawn(|| loop {
-                    let r = next.fetch_add(1, Ordering::Relaxed) as usize;
-                    if r >= spec.roll_outs {
-                        break;
-                    }
-                    let result = self.roll_out(iteration, r, student, tick);
-                    let failed = result.is_err();
-                    if let Ok(mut slots) = results.lock() {
-                        slots[r] = Some(result);
-                    }
-                    if failed {
-                        next.store(spec.roll_outs as u64, Ordering::Relaxed);
-                    }
-                });
-            }
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(self.threads)
+            .build()
+            .map_err(|e| JobError::Spec(format!("cannot start the roll-outs' threads: {e}")))?;
+        let runs: Vec<Result<RollOut, JobError>> = pool.install(|| {
+            (0..spec.roll_outs)
+                .into_par_iter()
+                .map(|r| self.roll_out(iteration, r, student, tick))
+                .collect()
         });
-        let slots = results
-            .into_inner()
-            .map_err(|_| JobError::Spec("a roll-out panicked".into()))?;
         let (width, nu) = (
             observation_names(&self.plant.model).len(),
             self.plant.layout.nu,
@@ -76,9 +62,8 @@ impl Job<'_> {
             first_reward: f64::NAN,
             failed: 0,
         };
-        for (r, slot) in slots.into_iter().enumerate() {
-            let Some(result) = slot else { continue };
-            let roll_out = result?;
+        for (r, run) in runs.into_iter().enumerate() {
+            let roll_out = run?;
             if r == 0 {
                 labelled.first_reward = roll_out.reward;
             }
@@ -198,7 +183,6 @@ fn roll_out(
     act: &mut ChooseAction<'_>,
     tick: &(dyn Fn() + Sync),
 ) -> Result<RollOut, JobError> {
-    let scale = action_scale(plant).map_err(RlError::from)?;
     let mut env = Env::new(Arc::clone(plant), weather.clone(), steps, draw)?;
     let (width, nu) = (env.observation_len(), env.action_len());
     let ny = plant.model.outputs.len();
@@ -222,7 +206,12 @@ fn roll_out(
                 })
                 .map_err(|e| JobError::Spec(format!("the teacher at step {k}: {e}")))?;
             result.failed += usize::from(decision.record.solve_failed());
-            action_from_input(env.previous_input(), &decision.input, &scale, &mut label);
+            action_from_input(
+                env.previous_input(),
+                &decision.input,
+                env.action_scale(),
+                &mut label,
+            );
             result.demonstrations.push(&observation, &label)?;
         }
         act(&observation, &label, &mut action).map_err(RlError::from)?;
