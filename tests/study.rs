@@ -432,6 +432,58 @@ fn a_study_trains_its_own_agents_before_the_seasons_that_read_them() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+#[test]
+fn a_study_distils_its_own_guides_before_the_seasons_that_read_them() {
+    let study = "examples/studies/tiny-distilled.toml";
+    let dir = temp_dir("study-distilled");
+    let d = dir.to_str().unwrap();
+    let (ok, out, err) = ghm(&["study", study, "--out", d, "--threads", "2"]);
+    assert!(ok, "{out}\n{err}");
+    // 2 distillations, 2 value fits, 2 controllers × 2 scenarios.
+    assert!(out.contains("8 jobs: 8 run now, 0 done before"), "{out}");
+    assert_eq!(complete_jobs(&dir), 8);
+    let run = |folder: &str| -> serde_json::Value {
+        let text = std::fs::read_to_string(dir.join(folder).join("run.json")).unwrap();
+        serde_json::from_str(&text).unwrap()
+    };
+    let distillation = &run("lettuce/distillations/stochastic")["spec"];
+    assert_eq!(distillation["stochastic"], true);
+    assert_eq!(distillation["teacher"]["horizon"], "2h");
+    assert!(dir
+        .join("lettuce/distillations/stochastic/policy.json")
+        .is_file());
+    let value: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.join("lettuce/values/stochastic-distilled/value.json"))
+            .unwrap(),
+    )
+    .unwrap();
+    assert_eq!(value["guide"], "distilled");
+    // The perturbed seasons read the guide distilled on perturbed plants, and its value.
+    let canonical = std::fs::canonicalize(&dir).unwrap();
+    let spec = &run("lettuce/rl-mpc-distilled/1h/stochastic-00")["spec"]["controller"];
+    let named = |key: &str| std::path::PathBuf::from(spec[key].as_str().unwrap());
+    assert_eq!(named("guide"), std::path::PathBuf::from("distilled"));
+    assert_eq!(
+        named("agent"),
+        canonical.join("lettuce/distillations/stochastic")
+    );
+    assert_eq!(
+        named("value"),
+        canonical.join("lettuce/values/stochastic-distilled")
+    );
+    let policy = &run("lettuce/distilled/nominal")["spec"]["controller"];
+    assert_eq!(
+        std::path::PathBuf::from(policy["agent"].as_str().unwrap()),
+        canonical.join("lettuce/distillations/nominal")
+    );
+    assert_eq!(results(&dir).len(), 4);
+    // Run again, nothing is: the distillations are complete.
+    let (ok, out, err) = ghm(&["study", study, "--out", d]);
+    assert!(ok, "{out}\n{err}");
+    assert!(out.contains("8 jobs: 0 run now, 8 done before"), "{out}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// The rows of a study's `timings.csv`, its header checked.
 fn timing_rows(dir: &Path) -> Vec<Vec<String>> {
     let text = std::fs::read_to_string(dir.join("timings.csv")).unwrap();

@@ -37,7 +37,7 @@ pub struct DistillArgs {
     /// Start the noisy roll-outs at rows of the weather file drawn from FIRST..LAST (both
     /// included), each its own, to learn from more of the year than the season; the
     /// students are still evaluated on the season.
-    #[arg(long, value_name = "FIRST..LAST", value_parser = parse_start_rows)]
+    #[arg(long, value_name = "FIRST..LAST", value_parser = str::parse::<StartRows>)]
     pub start_rows: Option<StartRows>,
     /// Roll out on perturbed plants (parameters drawn per roll-out with --uncertainty).
     #[arg(long)]
@@ -96,20 +96,4 @@ pub fn run(args: &DistillArgs) -> Result<(), CliError> {
         !args.overwrite,
         threads,
     )?)
-}
-
-/// `FIRST..LAST`, two row numbers.
-fn parse_start_rows(text: &str) -> Result<StartRows, String> {
-    let (first, last) = text
-        .split_once("..")
-        .ok_or_else(|| format!("`{text}` is not FIRST..LAST (e.g. 0..5000)"))?;
-    let row = |s: &str| {
-        s.trim()
-            .parse::<usize>()
-            .map_err(|e| format!("`{s}` in `{text}` is not a row number: {e}"))
-    };
-    Ok(StartRows {
-        first: row(first)?,
-        last: row(last)?,
-    })
 }

@@ -44,7 +44,8 @@ pub struct GuideArgs {
     /// The guide.
     #[arg(long, value_parser = choice::<GuideChoice>(), default_value_t = RlmpcSpec::default().guide)]
     pub guide: GuideChoice,
-    /// The SAC agent (a `ghm train` folder or policy file); default: the shipped one.
+    /// The guide's policy (a `ghm train` or `ghm distill` folder, or a policy file);
+    /// default: the SAC agent shipped for the model.
     #[arg(long, value_name = "DIR")]
     pub agent: Option<PathBuf>,
     /// The value network (a `ghm value` folder or value.json); default: the shipped one

@@ -16,8 +16,8 @@ pub struct ValueArgs {
     /// The guide whose returns are learned.
     #[arg(long, value_parser = choice::<GuideChoice>(), default_value_t = ValueSpec::default().guide)]
     pub guide: GuideChoice,
-    /// The SAC agent (a `ghm train` folder or policy file); default: the one shipped for
-    /// the model under models/agents/.
+    /// The guide's policy (a `ghm train` or `ghm distill` folder, or a policy file);
+    /// default: the SAC agent shipped for the model under models/agents/.
     #[arg(long, value_name = "DIR")]
     pub agent: Option<PathBuf>,
     #[command(flatten)]

@@ -164,7 +164,8 @@ pub fn resolve_policy(
 pub type GuideFactory = Box<dyn Fn() -> Box<dyn Controller + Send> + Sync>;
 
 /// The policy a guide of `choice` follows: `--agent`'s or the shipped one for the SAC
-/// guide (see [`resolve_policy`]), none for the expert and the rules.
+/// guide (see [`resolve_policy`]), `--agent`'s for a distilled guide (none is shipped),
+/// none for the expert and the rules.
 pub fn resolve_guide_policy(
     choice: GuideChoice,
     model_file: &Path,
@@ -175,11 +176,20 @@ pub fn resolve_guide_policy(
 ) -> Result<Option<PolicyFile>, JobError> {
     match choice {
         GuideChoice::Sac => resolve_policy(model_file, weather, agent, plant, announce).map(Some),
+        GuideChoice::Distilled => {
+            let agent = agent.ok_or_else(|| {
+                JobError::unset(
+                    "agent",
+                    "the distilled guide needs a policy: name the folder of a `ghm distill` run",
+                )
+            })?;
+            resolve_policy(model_file, weather, Some(agent), plant, announce).map(Some)
+        }
         GuideChoice::Expert | GuideChoice::Rules => Ok(None),
     }
 }
 
-/// Builds the guide factory for `choice`; the SAC guide follows `policy` (see
+/// Builds the guide factory for `choice`; the SAC and distilled guides follow `policy` (see
 /// [`resolve_guide_policy`]).
 pub fn guide_factory(
     plant: &Arc<Plant>,
@@ -188,9 +198,13 @@ pub fn guide_factory(
 ) -> Result<GuideFactory, JobError> {
     let fail = |e: crate::control::ControlError| JobError::Spec(e.to_string());
     match choice {
-        GuideChoice::Sac => {
-            let file =
-                policy.ok_or_else(|| JobError::unset("agent", "the SAC guide needs a policy"))?;
+        GuideChoice::Sac | GuideChoice::Distilled => {
+            let file = policy.ok_or_else(|| {
+                JobError::unset(
+                    "agent",
+                    format!("the {} guide needs a policy", choice.name()),
+                )
+            })?;
             Ok(clones_of(Policy::new(plant, file).map_err(fail)?))
         }
         GuideChoice::Expert => Ok(clones_of(Expert::new(plant.clone()).map_err(fail)?)),

@@ -253,7 +253,8 @@ pub struct RlmpcSpec {
     /// The guide.
     #[serde(default)]
     pub guide: GuideChoice,
-    /// The SAC agent (folder or policy file); `None`: the shipped one.
+    /// The guide's policy (a `ghm train` or `ghm distill` folder, or a policy file);
+    /// `None`: the SAC agent shipped for the model.
     #[serde(default)]
     pub agent: Option<PathBuf>,
     /// The value network (folder or value.json); `None`: the shipped one for the guide.
@@ -465,6 +466,9 @@ crate::choice! {
         /// The model's own rules (each input's `rule`, e.g. GreenLight's climate control):
         /// no training needed.
         Rules = "rules",
+        /// A policy distilled from MPC by `ghm distill` (`agent`: its folder or policy
+        /// file; none is shipped).
+        Distilled = "distilled",
     }
     default Sac
 }

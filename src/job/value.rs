@@ -31,7 +31,8 @@ pub struct ValueSpec {
     pub weather: WeatherSpec,
     /// The guide whose returns are learned.
     pub guide: GuideChoice,
-    /// The SAC agent (a `ghm train` folder or policy file); `None`: the shipped one.
+    /// The guide's policy (a `ghm train` or `ghm distill` folder, or a policy file);
+    /// `None`: the SAC agent shipped for the model.
     #[serde(default)]
     pub agent: Option<PathBuf>,
     /// Roll-outs from perturbed states.

@@ -10,7 +10,9 @@
 //! results of every complete job are gathered into `results.csv`.
 
 pub mod breakdown;
+mod jobs;
 pub mod markdown;
+mod own_agents;
 pub mod plan;
 pub mod report;
 pub mod run;

@@ -29,10 +29,10 @@
 //! stochastic = true                       # the stochastic scenarios' on the perturbed plant
 //! ```
 
-use crate::job::train::TrainSpec;
-use crate::job::value::ValueSpec;
+pub use super::jobs::{Job, Work};
+use super::own_agents::{Agents, Distilled, Learning, OwnAgents, LEARNED_FOLDERS};
 use crate::job::{
-    Choice, ControllerKind, ControllerSpec, CostForm, GuideChoice, PlantSpec, RunSpec, WeatherSpec,
+    Choice, ControllerKind, ControllerSpec, GuideChoice, PlantSpec, RunSpec, WeatherSpec,
 };
 use crate::study::StudyError;
 use serde::Deserialize;
@@ -55,45 +55,8 @@ struct StudyFile {
     controllers: Vec<toml::Spanned<toml::Table>>,
     #[serde(default)]
     agents: Option<Agents>,
-}
-
-/// `[agents]`: the trainings and value fits of the study's own agents (`ghm train` and
-/// `ghm value` options, by their names).
-#[derive(Debug, Clone, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-struct Agents {
-    episodes: usize,
-    warmup: usize,
-    seed: u64,
-    checkpoint_every: usize,
-    gamma: f64,
-    batch_size: usize,
-    /// The stochastic scenarios' agents (and value networks) are trained on the perturbed
-    /// plant (the scenarios' δ); otherwise every scenario uses the nominal plant's.
-    stochastic: bool,
-    trajectories: usize,
-    spread: f64,
-    epochs: usize,
-}
-
-impl Default for Agents {
-    /// `ghm train`'s and `ghm value`'s defaults; the stochastic scenarios' agents trained
-    /// on their perturbed plant.
-    fn default() -> Self {
-        let (train, value) = (TrainSpec::default(), ValueSpec::default());
-        Agents {
-            episodes: train.episodes,
-            warmup: train.warmup,
-            seed: train.seed,
-            checkpoint_every: train.checkpoint_every,
-            gamma: train.gamma,
-            batch_size: train.batch_size,
-            stochastic: true,
-            trajectories: value.trajectories,
-            spread: value.spread,
-            epochs: value.epochs,
-        }
-    }
+    #[serde(default)]
+    distilled: Option<Distilled>,
 }
 
 /// Which plants each controller's seasons run on.
@@ -117,84 +80,11 @@ impl Default for Scenarios {
     }
 }
 
+/// The folder of a model's season optimum.
+const OPTIMUM_FOLDER: &str = "optimum";
+
 /// The largest number of stochastic scenarios a study may ask for.
 const MAX_SCENARIOS: usize = 10_000;
-
-/// What a job runs.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Work {
-    /// A season (or the season optimum).
-    Season(RunSpec),
-    /// A training of a SAC agent.
-    Train(TrainSpec),
-    /// A value network fitted to a guide's returns.
-    Value(ValueSpec),
-}
-
-/// The phases' names, in the order they run ([`Work::phase`] indexes them).
-const PHASE_NAMES: [&str; 3] = ["trainings", "value fits", "seasons"];
-
-impl Work {
-    /// The job's kind in `study.json`.
-    pub fn kind(&self) -> &'static str {
-        match self {
-            Work::Season(_) => "season",
-            Work::Train(_) => "train",
-            Work::Value(_) => "value",
-        }
-    }
-
-    /// The phase's name, as the study's log and `timings.csv` say it.
-    pub fn phase_name(&self) -> &'static str {
-        PHASE_NAMES[self.phase()]
-    }
-
-    /// The phase it runs in: a job reads only jobs of earlier phases.
-    pub fn phase(&self) -> usize {
-        match self {
-            Work::Train(_) => 0,
-            Work::Value(_) => 1,
-            Work::Season(_) => 2,
-        }
-    }
-
-    /// The spec as `run.json` records it.
-    pub fn spec_json(&self) -> serde_json::Value {
-        let value = match self {
-            Work::Season(s) => serde_json::to_value(s),
-            Work::Train(s) => serde_json::to_value(s),
-            Work::Value(s) => serde_json::to_value(s),
-        };
-        value.unwrap_or_default()
-    }
-
-    /// The season's spec, for seasons.
-    pub fn season(&self) -> Option<&RunSpec> {
-        match self {
-            Work::Season(s) => Some(s),
-            _ => None,
-        }
-    }
-}
-
-/// One planned job.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Job {
-    /// What to run.
-    pub work: Work,
-    /// The folders (relative to the study's output folder) of the jobs it reads.
-    pub needs: Vec<PathBuf>,
-    /// Its run folder, relative to the study's output folder.
-    pub folder: PathBuf,
-    /// The model's file stem (a table's first column).
-    pub model: String,
-    /// The controller's name as the study file gives it.
-    pub controller: String,
-    /// The horizon as written, empty for controllers without one.
-    pub horizon: String,
-    /// `nominal` or `stochastic-NN` (for a training or value fit: the plant it is for).
-    pub scenario: String,
-}
 
 /// Reads the study file at `path` and plans its jobs, in a fixed order (the shards rely
 /// on it): per model, the trainings and value fits, the optimum, then per controller,
@@ -306,6 +196,38 @@ fn plan_file(file: StudyFile, place: &Place, out: &Path, text: &str) -> Result<V
         ));
     }
 
+    let teacher = match file.distilled.as_ref().and_then(|d| d.teacher.clone()) {
+        Some(table) => Some(
+            controller_spec(table, "", place).map_err(|m| format!("[distilled] teacher: {m}"))?,
+        ),
+        None => None,
+    };
+    let template = file
+        .distilled
+        .as_ref()
+        .map(|d| d.template(teacher))
+        .transpose()?;
+    let learning = Learning {
+        agents: file.agents.as_ref(),
+        distilled: file.distilled.as_ref().zip(template.as_ref()),
+    };
+    let reserved = LEARNED_FOLDERS.iter().chain(&[OPTIMUM_FOLDER]);
+    if let Some((c, folder)) = controllers.iter().find_map(|c| {
+        reserved
+            .clone()
+            .find(|f| slug(&c.name) == **f)
+            .map(|f| (c, f))
+    }) {
+        return Err(at_line(
+            text,
+            c.span.clone(),
+            format!(
+                "controller `{}` would write into the folder `{folder}`, which the study keeps for \
+                 its own runs; give it another name",
+                c.name
+            ),
+        ));
+    }
     let mut jobs = Vec::new();
     for model in &file.models {
         let model_path = place.locate(model)?;
@@ -313,12 +235,7 @@ fn plan_file(file: StudyFile, place: &Place, out: &Path, text: &str) -> Result<V
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_else(|| "model".into());
-        let mut own = OwnAgents {
-            agents: file.agents.as_ref(),
-            stem: &stem,
-            out,
-            used: std::collections::BTreeSet::new(),
-        };
+        let mut own = OwnAgents::new(learning, &stem, out);
         let mut seasons = Vec::new();
         if file.optimum {
             seasons.push(Job {
@@ -329,7 +246,7 @@ fn plan_file(file: StudyFile, place: &Place, out: &Path, text: &str) -> Result<V
                     controller: ControllerSpec::Optimum(crate::job::OptimumSpec::default()),
                 }),
                 needs: Vec::new(),
-                folder: Path::new(&stem).join("optimum"),
+                folder: Path::new(&stem).join(OPTIMUM_FOLDER),
                 model: stem.clone(),
                 controller: "optimum".into(),
                 horizon: String::new(),
@@ -358,7 +275,14 @@ fn plan_file(file: StudyFile, place: &Place, out: &Path, text: &str) -> Result<V
                         folder.push(slug(horizon));
                     }
                     folder.push(scenario);
-                    let (controller, needs) = own.attach(spec.clone(), plant);
+                    let (controller, needs) =
+                        own.attach(spec.clone(), c.guide, plant).map_err(|m| {
+                            at_line(
+                                text,
+                                c.span.clone(),
+                                format!("controller `{}`: {m}", c.name),
+                            )
+                        })?;
                     seasons.push(Job {
                         work: Work::Season(RunSpec {
                             model: model_path.clone(),
@@ -376,174 +300,10 @@ fn plan_file(file: StudyFile, place: &Place, out: &Path, text: &str) -> Result<V
                 }
             }
         }
-        jobs.extend(own.jobs(&model_path, &weather, s));
+        jobs.extend(own.jobs(&model_path, &weather, s.uncertainty));
         jobs.extend(seasons);
     }
     Ok(jobs)
-}
-
-/// A study's own agents for one model: which trainings and value fits its seasons read.
-struct OwnAgents<'a> {
-    agents: Option<&'a Agents>,
-    stem: &'a str,
-    out: &'a Path,
-    /// (plant kind, guide's value or the agent itself) pairs the seasons read.
-    used: std::collections::BTreeSet<(&'static str, Own)>,
-}
-
-/// What a season reads of the study's own agents.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
-enum Own {
-    /// The trained agent.
-    Agent,
-    /// The value network of a guide.
-    Value(GuideChoice),
-}
-
-impl OwnAgents<'_> {
-    /// The plant an agent for `plant` is trained on: `nominal` or `stochastic`.
-    fn kind(&self, plant: &PlantSpec, agents: &Agents) -> &'static str {
-        if agents.stochastic && plant.uncertainty > 0.0 {
-            "stochastic"
-        } else {
-            "nominal"
-        }
-    }
-
-    /// The folder of a training or value fit, relative to the output folder.
-    fn folder(&self, kind: &str, what: Own) -> PathBuf {
-        match what {
-            Own::Agent => Path::new(self.stem).join("agents").join(kind),
-            // The expert's and the rules' value fits do not depend on any training.
-            Own::Value(guide @ (GuideChoice::Expert | GuideChoice::Rules)) => {
-                Path::new(self.stem).join("values").join(guide.name())
-            }
-            Own::Value(GuideChoice::Sac) => Path::new(self.stem)
-                .join("values")
-                .join(format!("{kind}-sac")),
-        }
-    }
-
-    /// The controller with the study's own agent and value network where it names none,
-    /// and the folders it then reads.
-    fn attach(
-        &mut self,
-        mut controller: ControllerSpec,
-        plant: &PlantSpec,
-    ) -> (ControllerSpec, Vec<PathBuf>) {
-        let mut needs = Vec::new();
-        let Some(agents) = self.agents else {
-            return (controller, needs);
-        };
-        let kind = self.kind(plant, agents);
-        let mut use_own = |what: Own, needs: &mut Vec<PathBuf>| {
-            let kind = match what {
-                Own::Value(GuideChoice::Expert | GuideChoice::Rules) => "nominal",
-                _ => kind,
-            };
-            self.used.insert((kind, what));
-            let folder = self.folder(kind, what);
-            needs.push(folder.clone());
-            self.out.join(folder)
-        };
-        match &mut controller {
-            ControllerSpec::Policy { agent } if agent.is_none() => {
-                *agent = Some(use_own(Own::Agent, &mut needs));
-            }
-            ControllerSpec::Rlmpc(r) => {
-                if r.guide == GuideChoice::Sac && r.agent.is_none() {
-                    r.agent = Some(use_own(Own::Agent, &mut needs));
-                }
-                if r.terminal_cost != CostForm::None && r.value.is_none() {
-                    r.value = Some(use_own(Own::Value(r.guide), &mut needs));
-                }
-            }
-            ControllerSpec::Policy { .. }
-            | ControllerSpec::Inputs(_)
-            | ControllerSpec::Expert
-            | ControllerSpec::Rules
-            | ControllerSpec::Mpc(_)
-            | ControllerSpec::Optimum(_) => {}
-        }
-        (controller, needs)
-    }
-
-    /// The trainings and value fits the seasons read, trainings first.
-    fn jobs(&self, model: &Path, weather: &WeatherSpec, scenarios: &Scenarios) -> Vec<Job> {
-        let Some(agents) = self.agents else {
-            return Vec::new();
-        };
-        let mut trainings: Vec<&'static str> = Vec::new();
-        for (kind, what) in &self.used {
-            let needs_agent = *what == Own::Agent || *what == Own::Value(GuideChoice::Sac);
-            if needs_agent && !trainings.contains(kind) {
-                trainings.push(kind);
-            }
-        }
-        trainings.sort_unstable();
-        let job = |work: Work, needs: Vec<PathBuf>, folder: PathBuf, name: &str, kind: &str| Job {
-            work,
-            needs,
-            folder,
-            model: self.stem.to_string(),
-            controller: name.to_string(),
-            horizon: String::new(),
-            scenario: kind.to_string(),
-        };
-        let mut jobs = Vec::new();
-        for kind in &trainings {
-            let stochastic = *kind == "stochastic";
-            let spec = TrainSpec {
-                model: model.to_path_buf(),
-                weather: weather.clone(),
-                stochastic,
-                uncertainty: if stochastic {
-                    scenarios.uncertainty
-                } else {
-                    0.0
-                },
-                seed: agents.seed,
-                episodes: agents.episodes,
-                warmup: agents.warmup,
-                checkpoint_every: agents.checkpoint_every,
-                gamma: agents.gamma,
-                batch_size: agents.batch_size,
-            };
-            jobs.push(job(
-                Work::Train(spec),
-                Vec::new(),
-                self.folder(kind, Own::Agent),
-                "training",
-                kind,
-            ));
-        }
-        for (kind, what) in &self.used {
-            let Own::Value(guide) = *what else {
-                continue;
-            };
-            let agent = (guide == GuideChoice::Sac).then(|| self.folder(kind, Own::Agent));
-            let spec = ValueSpec {
-                model: model.to_path_buf(),
-                weather: weather.clone(),
-                guide,
-                agent: agent.as_ref().map(|a| self.out.join(a)),
-                trajectories: agents.trajectories,
-                spread: agents.spread,
-                state: None,
-                epochs: agents.epochs,
-                seed: agents.seed,
-            };
-            let name = format!("value fit ({})", guide.name());
-            jobs.push(job(
-                Work::Value(spec),
-                agent.into_iter().collect(),
-                self.folder(kind, *what),
-                &name,
-                kind,
-            ));
-        }
-        jobs
-    }
 }
 
 /// A `[[controllers]]` entry: its name, kind and the rest of its fields.
@@ -551,6 +311,9 @@ struct ControllerEntry {
     name: String,
     kind: ControllerKind,
     horizon: Option<String>,
+    /// The learned guide a policy controller follows (`guide`, SAC's by default), for the
+    /// study's own agents.
+    guide: GuideChoice,
     fields: toml::Table,
     /// Where its table is in the study file.
     span: std::ops::Range<usize>,
@@ -634,10 +397,26 @@ fn controller_entry(
             "controller `{name}`: the optimum is asked for with `optimum = true` at the top of the study"
         ));
     }
+    // A policy's `guide` says which of the study's learned guides it follows.
+    let guide = match (kind, fields.get("guide")) {
+        (ControllerKind::Policy, Some(toml::Value::String(g))) => match GuideChoice::from_name(g) {
+            Some(g @ (GuideChoice::Sac | GuideChoice::Distilled)) => {
+                fields.remove("guide");
+                g
+            }
+            _ => {
+                return Err(format!(
+                    "controller `{name}`: a policy follows `guide` = \"sac\" or \"distilled\", not \"{g}\""
+                ))
+            }
+        },
+        _ => GuideChoice::Sac,
+    };
     Ok(ControllerEntry {
         name,
         kind,
         horizon,
+        guide,
         fields,
         span,
     })
@@ -646,22 +425,32 @@ fn controller_entry(
 impl ControllerEntry {
     /// The controller at `horizon` (empty: none), its file paths located by `place`.
     fn spec(&self, horizon: &str, place: &Place) -> Result<ControllerSpec, String> {
-        let mut fields = self.fields.clone();
-        if !horizon.is_empty() {
-            fields.insert("horizon".into(), toml::Value::String(horizon.into()));
-        }
-        for key in ["agent", "value", "inputs"] {
-            if let Some(toml::Value::String(p)) = fields.get(key) {
-                if !p.starts_with("const:") {
-                    let located = place.locate(Path::new(p))?.to_string_lossy().into_owned();
-                    fields.insert(key.into(), toml::Value::String(located));
-                }
+        controller_spec(self.fields.clone(), horizon, place)
+            .map_err(|m| format!("controller `{}`: {m}", self.name))
+    }
+}
+
+/// The controller a table of `kind` and its fields describes, at `horizon` (empty: as
+/// written), its file paths located by `place`.
+fn controller_spec(
+    mut fields: toml::Table,
+    horizon: &str,
+    place: &Place,
+) -> Result<ControllerSpec, String> {
+    if !horizon.is_empty() {
+        fields.insert("horizon".into(), toml::Value::String(horizon.into()));
+    }
+    for key in ["agent", "value", "inputs"] {
+        if let Some(toml::Value::String(p)) = fields.get(key) {
+            if !p.starts_with("const:") {
+                let located = place.locate(Path::new(p))?.to_string_lossy().into_owned();
+                fields.insert(key.into(), toml::Value::String(located));
             }
         }
-        toml::Value::Table(fields)
-            .try_into::<ControllerSpec>()
-            .map_err(|e| format!("controller `{}`: {}", self.name, e.message()))
     }
+    toml::Value::Table(fields)
+        .try_into::<ControllerSpec>()
+        .map_err(|e| e.message().to_string())
 }
 
 /// A name as a folder name: lower case, runs of other characters as one `-`.
@@ -693,6 +482,23 @@ mod tests {
             data: Some(Path::new("/data")),
         };
         plan_file(file, &place, Path::new("/out"), text)
+    }
+
+    /// Phases: every job reads only jobs planned before it, of an earlier phase.
+    fn needs_come_first(jobs: &[Job]) {
+        for (k, job) in jobs.iter().enumerate() {
+            for need in &job.needs {
+                let i = jobs.iter().position(|j| &j.folder == need).unwrap();
+                assert!(i < k && jobs[i].work.phase() < job.work.phase(), "{need:?}");
+            }
+        }
+    }
+
+    /// The jobs' folders, in order.
+    fn folders(jobs: &[Job]) -> Vec<String> {
+        jobs.iter()
+            .map(|j| j.folder.display().to_string())
+            .collect()
     }
 
     #[test]
@@ -769,10 +575,7 @@ mod tests {
             "#,
         )
         .unwrap();
-        let folders: Vec<String> = jobs
-            .iter()
-            .map(|j| j.folder.display().to_string())
-            .collect();
+        let folders = folders(&jobs);
         assert_eq!(
             folders[..5],
             [
@@ -800,13 +603,7 @@ mod tests {
             Some(Path::new("/out/lettuce/agents/stochastic"))
         );
         assert_eq!(jobs[4].needs, [Path::new("lettuce/agents/stochastic")]);
-        // Phases: every job reads only jobs planned before it, of an earlier phase.
-        for (k, job) in jobs.iter().enumerate() {
-            for need in &job.needs {
-                let i = jobs.iter().position(|j| &j.folder == need).unwrap();
-                assert!(i < k && jobs[i].work.phase() < job.work.phase(), "{need:?}");
-            }
-        }
+        needs_come_first(&jobs);
         let by_folder = |f: &str| jobs.iter().find(|j| j.folder == Path::new(f)).unwrap();
         let rlmpc = by_folder("lettuce/rl-mpc/1h/stochastic-00");
         let Some(ControllerSpec::Rlmpc(r)) = rlmpc.work.season().map(|s| &s.controller) else {
@@ -825,6 +622,106 @@ mod tests {
         // A controller that names its agent reads it, not the study's.
         let given = by_folder("lettuce/given/nominal");
         assert!(given.needs.is_empty());
+    }
+
+    #[test]
+    fn distilled_guides_are_distilled_and_fitted_before_the_seasons_that_read_them() {
+        let jobs = plan_text(
+            r#"
+            models = ["../models/lettuce.ghm"]
+            horizons = ["1h"]
+            [scenarios]
+            stochastic = 1
+            uncertainty = 0.05
+            [distilled]
+            iterations = 3
+            start_rows = "0..5000"
+            [distilled.teacher]
+            kind = "mpc"
+            horizon = "2h"
+            [[controllers]]
+            name = "Distilled"
+            kind = "policy"
+            guide = "distilled"
+            [[controllers]]
+            name = "RL-MPC (distilled)"
+            kind = "rlmpc"
+            guide = "distilled"
+            [[controllers]]
+            name = "RL-MPC"
+            kind = "rlmpc"
+            "#,
+        )
+        .unwrap();
+        let folders = folders(&jobs);
+        // Without [agents], the SAC guide is the shipped one: nothing trained for it.
+        assert_eq!(
+            folders[..4],
+            [
+                "lettuce/distillations/nominal",
+                "lettuce/distillations/stochastic",
+                "lettuce/values/nominal-distilled",
+                "lettuce/values/stochastic-distilled",
+            ]
+        );
+        let Work::Distill(distill) = &jobs[1].work else {
+            panic!("{:?}", jobs[1].work);
+        };
+        assert!(distill.stochastic && distill.uncertainty == 0.05 && distill.iterations == 3);
+        assert_eq!(distill.teacher.horizon(), Some("2h"));
+        assert_eq!(
+            distill.start_rows,
+            Some(crate::job::distill::StartRows {
+                first: 0,
+                last: 5000
+            })
+        );
+        let Work::Value(value) = &jobs[3].work else {
+            panic!("{:?}", jobs[3].work);
+        };
+        assert_eq!(value.guide, GuideChoice::Distilled);
+        needs_come_first(&jobs);
+        assert_eq!(
+            jobs[3].needs,
+            [Path::new("lettuce/distillations/stochastic")]
+        );
+        let by_folder = |f: &str| jobs.iter().find(|j| j.folder == Path::new(f)).unwrap();
+        let policy = by_folder("lettuce/distilled/stochastic-00");
+        assert_eq!(
+            policy.needs,
+            [Path::new("lettuce/distillations/stochastic")]
+        );
+        let rlmpc = by_folder("lettuce/rl-mpc-distilled/1h/nominal");
+        assert_eq!(
+            rlmpc.needs,
+            [
+                Path::new("lettuce/distillations/nominal"),
+                Path::new("lettuce/values/nominal-distilled")
+            ]
+        );
+        assert!(by_folder("lettuce/rl-mpc/1h/nominal").needs.is_empty());
+        // A distilled guide needs [distilled] or its own agent; a policy follows a
+        // learned guide only.
+        for (entry, expected) in [
+            (
+                "kind = \"policy\"\nguide = \"distilled\"",
+                "line 3: controller `policy`: a distilled guide needs its `agent`",
+            ),
+            (
+                "kind = \"policy\"\nguide = \"expert\"",
+                "a policy follows `guide` = \"sac\" or \"distilled\"",
+            ),
+        ] {
+            let text = format!("models = [\"m.ghm\"]\n\n[[controllers]]\n{entry}");
+            let e = plan_text(&text).unwrap_err();
+            assert!(e.contains(expected), "{text}\n→ {e}");
+        }
+        let e = plan_text("models = [\"m.ghm\"]\n[distilled]\nstart_rows = \"9\"\n[[controllers]]\nkind = \"expert\"")
+            .unwrap_err();
+        assert!(
+            e.contains("[distilled] start_rows: `9` is not FIRST..LAST"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -848,6 +745,10 @@ mod tests {
             (
                 "models = [\"m.ghm\"]\n[scenarios]\nstochastic = 3\nuncertainty = 0\n[[controllers]]\nkind = \"expert\"",
                 "need a δ",
+            ),
+            (
+                "models = [\"m.ghm\"]\n[[controllers]]\nname = \"Values\"\nkind = \"expert\"",
+                "line 2: controller `Values` would write into the folder `values`",
             ),
         ];
         for (text, expected) in cases {

@@ -3,6 +3,7 @@
 //! study's time, phase by phase, survives a kill), and `results.csv` gathered from every
 //! complete job ([`report::write_results`]).
 
+use crate::job::distill::run_distill_job;
 use crate::job::folder;
 use crate::job::output::{io_err, model_file_hash, progress_bar};
 use crate::job::train::run_train_job;
@@ -399,6 +400,9 @@ fn run_job(job: &Job, out: &Path) -> Result<String, JobError> {
             .map(|()| format!("trained ({} episodes)", spec.episodes)),
         Work::Value(spec) => run_value_job(spec, &dir, &options)
             .map(|()| format!("value network fitted ({} roll-outs)", spec.trajectories)),
+        // One thread per job, as the study's other jobs: the study runs them side by side.
+        Work::Distill(spec) => run_distill_job(spec, &dir, &options, true, 1)
+            .map(|()| format!("distilled ({} iterations)", spec.iterations)),
     }
 }
 

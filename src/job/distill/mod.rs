@@ -92,6 +92,26 @@ pub struct StartRows {
     pub last: usize,
 }
 
+impl std::str::FromStr for StartRows {
+    type Err = String;
+
+    /// `FIRST..LAST`, two row numbers (`0..5000`).
+    fn from_str(text: &str) -> Result<Self, String> {
+        let (first, last) = text
+            .split_once("..")
+            .ok_or_else(|| format!("`{text}` is not FIRST..LAST (e.g. 0..5000)"))?;
+        let row = |s: &str| {
+            s.trim()
+                .parse::<usize>()
+                .map_err(|e| format!("`{s}` in `{text}` is not a row number: {e}"))
+        };
+        Ok(StartRows {
+            first: row(first)?,
+            last: row(last)?,
+        })
+    }
+}
+
 impl Default for DistillSpec {
     /// `ghm distill`'s defaults: MPC at 6 h teaches over 12 iterations of 4 roll-outs,
     /// noise 0.1, seed 4, on the nominal plant of the built-in season; `model` is to be
