@@ -744,3 +744,27 @@ fn distill_refuses_bad_start_rows_and_threads_with_a_message() {
         "nothing is written for a refused spec"
     );
 }
+
+#[test]
+fn value_refuses_a_bad_learning_rate_or_batch_with_a_message() {
+    let dir = temp_dir("value-fit-options");
+    let out = dir.to_string_lossy().to_string();
+    for (flag, expected) in [
+        ("--learning-rate=0", "--learning-rate"),
+        ("--learning-rate=-1e-3", "must be a number > 0"),
+        ("--batch-size=0", "--batch-size"),
+    ] {
+        let (ok, _, err) = ghm(&[
+            "value",
+            "models/lettuce.ghm",
+            "--guide",
+            "expert",
+            flag,
+            "--out",
+            &out,
+        ]);
+        assert!(!ok, "{flag}");
+        assert!(err.contains(expected), "{flag}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+}

@@ -44,6 +44,13 @@ pub struct ValueSpec {
     pub state: Option<String>,
     /// Training epochs of the value network.
     pub epochs: usize,
+    /// Points per gradient step (`None`: [`ValueFitConfig`]'s default).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub batch_size: Option<usize>,
+    /// Initial Adam learning rate, decaying linearly to zero (`None`: [`ValueFitConfig`]'s
+    /// default).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub learning_rate: Option<f64>,
     /// Seed of the roll-outs and of the fit.
     pub seed: u64,
 }
@@ -62,6 +69,8 @@ impl Default for ValueSpec {
             spread: 0.5,
             state: None,
             epochs: 200,
+            batch_size: None,
+            learning_rate: None,
             seed: 4,
         }
     }
@@ -79,10 +88,17 @@ pub fn run_value_job(spec: &ValueSpec, out: &Path, options: &JobOptions) -> Resu
     if !(args.spread >= 0.0 && args.spread < 1.0) {
         return Err(JobError::field("spread", args.spread, "must be in [0, 1)"));
     }
+    if let Some(lr) = args
+        .learning_rate
+        .filter(|lr| !(lr.is_finite() && *lr > 0.0))
+    {
+        return Err(JobError::field("learning_rate", lr, "must be a number > 0"));
+    }
     // Refused before anything is allocated for them (the samples, the learning curve).
     for (field, value, most) in [
         ("trajectories", args.trajectories, MAX_TRAJECTORIES),
         ("epochs", args.epochs, MAX_EPOCHS),
+        ("batch_size", args.batch_size.unwrap_or(1), MAX_TRAJECTORIES),
     ] {
         if value == 0 || value > most {
             return Err(JobError::field(
@@ -215,10 +231,13 @@ fn fit_and_write(
     let margin = 0.1 * (hi - lo).max(1e-9);
     let lower = [lo - margin, 0.0];
     let upper = [hi + margin, steps as f64];
+    let default = ValueFitConfig::default();
     let config = ValueFitConfig {
         epochs: args.epochs,
         seed: args.seed,
-        ..ValueFitConfig::default()
+        batch_size: args.batch_size.unwrap_or(default.batch_size),
+        learning_rate: args.learning_rate.unwrap_or(default.learning_rate),
+        ..default
     };
     let fit_bar = bar(
         args.epochs as u64,
