@@ -1,4 +1,4 @@
-//! Imitation of a teacher's actions with burn: the regression of a deterministic actor
+//! Imitation of a teacher's actions: the regression of a deterministic actor
 //! `a = tanh(μ(ŝ))` onto demonstrated actions, the learning step of policy distillation
 //! (`ghm distill`, DAgger in [`job::distill`](crate::job)).
 //!
@@ -7,15 +7,16 @@
 //! in wherever a guide is accepted. Observations are standardised with frozen statistics
 //! ([`Normalizer`]) as the policy will standardise them; the loss is the mean squared error
 //! between `tanh(μ(ŝ))` and the teacher's action in `[−1, 1]^nu`, minimised with Adam on
-//! shuffled mini-batches. A fit continues from the weights it is given, so DAgger's later
+//! shuffled mini-batches, its gradient steps written out
+//! ([`regression`](crate::rl::regression)). A fit continues from the weights it is given, so DAgger's later
 //! iterations refine the last student instead of starting over.
 
 use crate::agent::Normalizer;
 use crate::nn::{Activation, Mlp};
+use crate::rl::regression::{OutputMap, Regression};
 use crate::rl::sac::adam::Adam;
-use crate::rl::sac::net::{to_vec, Net};
+use crate::rl::sac::net::Net;
 use crate::rl::{AgentError, RlError};
-use burn::tensor::{Device, Tensor, TensorData};
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -213,28 +214,30 @@ pub fn fit_actor(
         .collect();
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut order: Vec<usize> = (0..n).collect();
-    let device = Device::flex().autodiff();
-    let lengths: Vec<usize> = actor.parameters().iter().map(|p| p.len()).collect();
+    let mut gradients: Vec<Vec<f32>> = actor
+        .parameters()
+        .iter()
+        .map(|p| vec![0.0; p.len()])
+        .collect();
+    let lengths: Vec<usize> = gradients.iter().map(Vec::len).collect();
     let mut adam = Adam::new(&lengths);
     let lr = config.learning_rate as f32;
     let mut losses = Vec::with_capacity(config.epochs);
+    let mut regression = Regression::new();
+    let (mut zb, mut yb) = (Vec::new(), Vec::new());
     for epoch in 1..=config.epochs {
         order.shuffle(&mut rng);
         let mut sum = 0.0;
         for rows in order.chunks(config.batch_size) {
-            let mut zb = Vec::with_capacity(rows.len() * width);
-            let mut yb = Vec::with_capacity(rows.len() * nu);
+            zb.clear();
+            yb.clear();
             for &r in rows {
                 zb.extend_from_slice(&z[r * width..(r + 1) * width]);
                 yb.extend_from_slice(&y[r * nu..(r + 1) * nu]);
             }
-            let zb = Tensor::<2>::from_data(TensorData::new(zb, [rows.len(), width]), &device);
-            let yb = Tensor::<2>::from_data(TensorData::new(yb, [rows.len(), nu]), &device);
-            let live = actor.tensors(&device, true);
-            let loss = (live.forward(zb).tanh() - yb).square().mean();
-            sum += f64::from(to_vec(loss.clone().detach())?[0]) * rows.len() as f64;
-            let grads = live.gradients(&loss.backward())?;
-            adam.step(lr, actor.parameters_mut(), &grads);
+            let loss = regression.step(actor, OutputMap::Tanh, &zb, &yb, &mut gradients);
+            sum += f64::from(loss) * rows.len() as f64;
+            adam.step(lr, actor.parameters_mut(), &gradients);
         }
         let loss = sum / n as f64;
         if !loss.is_finite() {

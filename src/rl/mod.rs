@@ -14,9 +14,13 @@
 //! * `value_fit`: the value network regression of RL-guided MPC (feature `learn`);
 //! * `imitation`: the regression of an actor onto a teacher's actions, policy
 //!   distillation's learning step (feature `learn`);
+//! * `regression`: the least-squares gradient step of a small perceptron, written out
+//!   (`sgemm` and a vectorised tanh), which the value and imitation fits take (feature
+//!   `learn`);
 //! * [`error`]: the error type [`RlError`].
 //!
-//! Architecture invariant: burn stays inside `sac`, `value_fit` and `imitation`; everything that leaves this room
+//! Architecture invariant: burn stays inside `sac` (and the tests that check `regression`
+//! against it); everything that leaves this room
 //! (a [`PolicyFile`]) is plain weights for the [`nn`](crate::nn) room.
 
 pub mod buffer;
@@ -25,6 +29,9 @@ pub mod error;
 #[cfg(feature = "learn")]
 #[cfg_attr(docsrs, doc(cfg(feature = "learn")))]
 pub mod imitation;
+#[cfg(feature = "learn")]
+#[cfg_attr(docsrs, doc(cfg(feature = "learn")))]
+pub mod regression;
 #[cfg(feature = "learn")]
 #[cfg_attr(docsrs, doc(cfg(feature = "learn")))]
 pub mod sac;

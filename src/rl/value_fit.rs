@@ -1,5 +1,6 @@
-//! Fitting a value network to (features → return) data with burn: the regression of
-//! RL-guided MPC's terminal cost (spec §12, reference numbers §4).
+//! Fitting a value network to (features → return) data: the regression of RL-guided
+//! MPC's terminal cost (spec §12, reference numbers §4), its gradient steps written out
+//! ([`regression`](crate::rl::regression)).
 //!
 //! A tanh perceptron with Xavier-uniform weights and zero biases, trained with Adam on the
 //! mean squared error, the learning rate decaying linearly to zero, mini-batches drawn by
@@ -10,10 +11,10 @@
 
 use crate::nn::scaled::{check_box, normalise_into_box};
 use crate::nn::{Activation, ScaledMlp};
+use crate::rl::regression::{OutputMap, Regression};
 use crate::rl::sac::adam::Adam;
-use crate::rl::sac::net::{to_vec, Net};
+use crate::rl::sac::net::Net;
 use crate::rl::{AgentError, RlError};
-use burn::tensor::{Device, Tensor, TensorData};
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -152,24 +153,26 @@ pub fn fit_value(
     let n_val = ((n as f64 * config.validation).round() as usize).min(n - 1);
     let (validation, train) = order.split_at(n_val);
     let mut train = train.to_vec();
-    let device = Device::flex().autodiff();
-    let lengths: Vec<usize> = net.parameters().iter().map(|p| p.len()).collect();
+    let mut gradients: Vec<Vec<f32>> = net
+        .parameters()
+        .iter()
+        .map(|p| vec![0.0; p.len()])
+        .collect();
+    let lengths: Vec<usize> = gradients.iter().map(Vec::len).collect();
     let mut adam = Adam::new(&lengths);
     let batches_per_epoch = train.len().div_ceil(config.batch_size);
     let total_steps = (batches_per_epoch * config.epochs) as f64;
     let mut step = 0usize;
     let mut curve = Vec::with_capacity(config.epochs);
-    let gather = |rows: &[usize]| -> (Tensor<2>, Tensor<2>) {
-        let mut zb = Vec::with_capacity(rows.len() * width);
-        let mut yb = Vec::with_capacity(rows.len());
+    let mut regression = Regression::new();
+    let (mut zb, mut yb) = (Vec::new(), Vec::new());
+    let gather = |rows: &[usize], zb: &mut Vec<f32>, yb: &mut Vec<f32>| {
+        zb.clear();
+        yb.clear();
         for &r in rows {
             zb.extend_from_slice(&z[r * width..(r + 1) * width]);
             yb.push(y[r]);
         }
-        (
-            Tensor::<2>::from_data(TensorData::new(zb, [rows.len(), width]), &device),
-            Tensor::<2>::from_data(TensorData::new(yb, [rows.len(), 1]), &device),
-        )
     };
     for epoch in 1..=config.epochs {
         train.shuffle(&mut rng);
@@ -177,23 +180,24 @@ pub fn fit_value(
         for rows in train.chunks(config.batch_size) {
             let lr = (config.learning_rate * (1.0 - step as f64 / total_steps)) as f32;
             step += 1;
-            let (zb, yb) = gather(rows);
-            let live = net.tensors(&device, true);
-            let loss = (live.forward(zb) - yb).square().mean();
-            train_sum += f64::from(to_vec(loss.clone().detach())?[0]) * rows.len() as f64;
-            let grads = live.gradients(&loss.backward())?;
-            adam.step(lr, net.parameters_mut(), &grads);
+            gather(rows, &mut zb, &mut yb);
+            let loss = regression.step(&net, OutputMap::Linear, &zb, &yb, &mut gradients);
+            train_sum += f64::from(loss) * rows.len() as f64;
+            adam.step(lr, net.parameters_mut(), &gradients);
         }
         let train_loss = train_sum / train.len() as f64 * var;
         let validation_loss = if validation.is_empty() {
             f64::NAN
         } else {
-            let fixed = net.tensors(&device, false);
             let mut sum = 0.0;
             for rows in validation.chunks(8192) {
-                let (zb, yb) = gather(rows);
-                let loss = (fixed.forward(zb.detach()) - yb).square().sum();
-                sum += f64::from(to_vec(loss)?[0]);
+                gather(rows, &mut zb, &mut yb);
+                let predicted = regression.predict(&net, OutputMap::Linear, &zb);
+                sum += predicted
+                    .iter()
+                    .zip(&yb)
+                    .map(|(p, t)| f64::from(p - t).powi(2))
+                    .sum::<f64>();
             }
             sum / validation.len() as f64 * var
         };
