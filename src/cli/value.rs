@@ -34,12 +34,12 @@ pub struct ValueArgs {
     /// Training epochs of the value network.
     #[arg(long, value_name = "N", default_value_t = ValueSpec::default().epochs)]
     pub epochs: usize,
-    /// Points per gradient step of the fit [default: 1024].
-    #[arg(long, value_name = "N")]
-    pub batch_size: Option<usize>,
-    /// Initial Adam learning rate of the fit, decaying linearly to zero [default: 1e-3].
-    #[arg(long, value_name = "LR")]
-    pub learning_rate: Option<f64>,
+    /// Points per gradient step of the fit.
+    #[arg(long, value_name = "N", default_value_t = ValueSpec::default().batch_size)]
+    pub batch_size: usize,
+    /// Initial Adam learning rate of the fit, decaying linearly to zero.
+    #[arg(long, value_name = "LR", default_value_t = ValueSpec::default().learning_rate)]
+    pub learning_rate: f64,
     /// Seed of the roll-outs and of the fit.
     #[arg(long, value_name = "S", default_value_t = ValueSpec::default().seed)]
     pub seed: u64,

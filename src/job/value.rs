@@ -44,22 +44,23 @@ pub struct ValueSpec {
     pub state: Option<String>,
     /// Training epochs of the value network.
     pub epochs: usize,
-    /// Points per gradient step (`None`: [`ValueFitConfig`]'s default).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub batch_size: Option<usize>,
-    /// Initial Adam learning rate, decaying linearly to zero (`None`: [`ValueFitConfig`]'s
-    /// default).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub learning_rate: Option<f64>,
+    /// Points per gradient step.
+    #[serde(default = "ValueSpec::default_batch_size")]
+    pub batch_size: usize,
+    /// Initial Adam learning rate, decaying linearly to zero.
+    #[serde(default = "ValueSpec::default_learning_rate")]
+    pub learning_rate: f64,
     /// Seed of the roll-outs and of the fit.
     pub seed: u64,
 }
 
 impl Default for ValueSpec {
     /// `ghm value`'s defaults (a study's `[agents]` too): the SAC guide shipped for the
-    /// model, 1 000 roll-outs spread by σ = 0.5, 200 epochs, seed 4, the model's first
-    /// state; `model` is to be set.
+    /// model, 1 000 roll-outs spread by σ = 0.5, the fit's defaults
+    /// ([`ValueFitConfig::default`]), seed 4, the model's first state; `model` is to be
+    /// set.
     fn default() -> Self {
+        let fit = ValueFitConfig::default();
         ValueSpec {
             model: PathBuf::new(),
             weather: WeatherSpec::default(),
@@ -68,11 +69,23 @@ impl Default for ValueSpec {
             trajectories: 1000,
             spread: 0.5,
             state: None,
-            epochs: 200,
-            batch_size: None,
-            learning_rate: None,
+            epochs: fit.epochs,
+            batch_size: fit.batch_size,
+            learning_rate: fit.learning_rate,
             seed: 4,
         }
+    }
+}
+
+impl ValueSpec {
+    /// The fit's batch where a recorded spec has none.
+    fn default_batch_size() -> usize {
+        ValueFitConfig::default().batch_size
+    }
+
+    /// The fit's learning rate where a recorded spec has none.
+    fn default_learning_rate() -> f64 {
+        ValueFitConfig::default().learning_rate
     }
 }
 
@@ -88,17 +101,18 @@ pub fn run_value_job(spec: &ValueSpec, out: &Path, options: &JobOptions) -> Resu
     if !(args.spread >= 0.0 && args.spread < 1.0) {
         return Err(JobError::field("spread", args.spread, "must be in [0, 1)"));
     }
-    if let Some(lr) = args
-        .learning_rate
-        .filter(|lr| !(lr.is_finite() && *lr > 0.0))
-    {
-        return Err(JobError::field("learning_rate", lr, "must be a number > 0"));
+    if !(args.learning_rate.is_finite() && args.learning_rate > 0.0) {
+        return Err(JobError::field(
+            "learning_rate",
+            args.learning_rate,
+            "must be a number > 0",
+        ));
     }
     // Refused before anything is allocated for them (the samples, the learning curve).
     for (field, value, most) in [
         ("trajectories", args.trajectories, MAX_TRAJECTORIES),
         ("epochs", args.epochs, MAX_EPOCHS),
-        ("batch_size", args.batch_size.unwrap_or(1), MAX_TRAJECTORIES),
+        ("batch_size", args.batch_size, MAX_TRAJECTORIES),
     ] {
         if value == 0 || value > most {
             return Err(JobError::field(
@@ -231,13 +245,12 @@ fn fit_and_write(
     let margin = 0.1 * (hi - lo).max(1e-9);
     let lower = [lo - margin, 0.0];
     let upper = [hi + margin, steps as f64];
-    let default = ValueFitConfig::default();
     let config = ValueFitConfig {
         epochs: args.epochs,
         seed: args.seed,
-        batch_size: args.batch_size.unwrap_or(default.batch_size),
-        learning_rate: args.learning_rate.unwrap_or(default.learning_rate),
-        ..default
+        batch_size: args.batch_size,
+        learning_rate: args.learning_rate,
+        ..ValueFitConfig::default()
     };
     let fit_bar = bar(
         args.epochs as u64,

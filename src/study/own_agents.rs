@@ -338,9 +338,8 @@ impl<'a> OwnAgents<'a> {
                 spread: value_options.spread,
                 state: None,
                 epochs: value_options.epochs,
-                batch_size: None,
-                learning_rate: None,
                 seed: value_options.seed,
+                ..ValueSpec::default()
             };
             let name = format!("value fit ({})", guide.name());
             jobs.push(job(
