@@ -123,14 +123,6 @@ fn a_model_planned_with_fewer_sub_steps_is_solved_as_simulated_before_any_fallba
     );
     // Step 2 restarts warm, on the planning problem, from that solution.
     assert_eq!(log[2].0, None);
-    // Where the model as simulated fails too, the planning problem is solved cold once
-    // more, uncapped, before the shifted plan.
-    let model =
-        ghm::lang::load_str("lettuce.ghm", &text).unwrap_or_else(|e| panic!("{}", e.render()));
-    let (plant, mut mpc, caps) = setup_with(model, vec![None, failed, failed, failed, None]);
-    let log = run(&plant, &mut mpc, 2);
-    assert_eq!(caps.borrow()[2..5], [cold_cap, None, None]);
-    assert_eq!(log[1].0.as_deref(), Some("cold_start"));
     // Without `plan substeps` the same failures end in the shifted plan, the cold solve
     // uncapped.
     let (plant, mut mpc, caps) = setup_recording(vec![None, failed, failed, None]);

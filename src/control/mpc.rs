@@ -26,10 +26,7 @@
 //!    tomato a state where one sub-step's problem ran out of iterations solved in 121 with
 //!    four). Where this fallback exists, the cold starts of fallback 1 are capped at
 //!    [`COLD_ITERATIONS_BEFORE_SIMULATION_MODEL`] iterations, so a step does not spend the
-//!    solver's whole budget twice on the coarse problem before it; where it fails too,
-//!    the planning problem is solved cold once more with the whole budget (recorded as
-//!    `cold_start`: over a 60-day GreenLight season a step that failed so had solved
-//!    cold in 195 iterations when started afresh, just under the cap);
+//!    solver's whole budget twice on the coarse problem before it;
 //! 3. `shifted_plan`: apply the second input of the last successful plan;
 //! 4. `guide_input` (RL-guided MPC only): the guide's own input;
 //! 5. `hold_input`: hold the previous input (within the bounds and rate limits).
@@ -357,16 +354,6 @@ impl Mpc {
         Ok((plain, effort))
     }
 
-    /// The last cold start where the simulation model follows and failed too: on the
-    /// planning model again, from the rules' roll-out where every input has a rule (else
-    /// the initial point), with the solver's whole iteration budget.
-    fn solve_cold_uncapped(&mut self, observation: &Observation) -> Result<Solution, ControlError> {
-        if !self.rules_roll_out(observation)? {
-            self.ocp.initial_point(&mut self.start_x);
-        }
-        Ok(self.solver.solve(&mut self.ocp, Start::cold(&self.start_x)))
-    }
-
     /// Writes into the starting point the roll-out of the model's rules from the measured
     /// state over the forecast; false (nothing written) where some input has no rule.
     fn rules_roll_out(&mut self, observation: &Observation) -> Result<bool, ControlError> {
@@ -567,14 +554,6 @@ impl Controller for Mpc {
                     solution = simulated;
                     fallback = Some(Fallback::SimulationModel);
                 }
-            }
-        }
-        if !solution.status.is_success() && self.simulation_model_follows() {
-            let uncapped = self.solve_cold_uncapped(observation)?;
-            effort.add(&uncapped);
-            if uncapped.status.is_success() {
-                solution = uncapped;
-                fallback = Some(Fallback::ColdStart);
             }
         }
         let status = solution.status;
