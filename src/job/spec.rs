@@ -473,6 +473,14 @@ crate::choice! {
     default Sac
 }
 
+impl GuideChoice {
+    /// Whether the guide follows a policy file (SAC's or a distilled one), which the
+    /// controller names with `agent`; the expert and the rules need none.
+    pub fn follows_policy(self) -> bool {
+        matches!(self, GuideChoice::Sac | GuideChoice::Distilled)
+    }
+}
+
 crate::choice! {
     /// With or without the terminal region.
     pub enum Variant {

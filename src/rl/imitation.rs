@@ -13,7 +13,7 @@
 
 use crate::agent::Normalizer;
 use crate::nn::{Activation, Mlp};
-use crate::rl::regression::{OutputMap, Regression};
+use crate::rl::regression::{zero_gradients, OutputMap, Regression};
 use crate::rl::sac::adam::Adam;
 use crate::rl::sac::net::Net;
 use crate::rl::{AgentError, RlError};
@@ -214,11 +214,7 @@ pub fn fit_actor(
         .collect();
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut order: Vec<usize> = (0..n).collect();
-    let mut gradients: Vec<Vec<f32>> = actor
-        .parameters()
-        .iter()
-        .map(|p| vec![0.0; p.len()])
-        .collect();
+    let mut gradients = zero_gradients(actor);
     let lengths: Vec<usize> = gradients.iter().map(Vec::len).collect();
     let mut adam = Adam::new(&lengths);
     let lr = config.learning_rate as f32;

@@ -12,6 +12,15 @@
 use crate::nn::Activation;
 use crate::rl::sac::net::Net;
 
+/// A zero gradient for every parameter of `net`, in the order of [`Net::parameters`]:
+/// what [`Regression::step`] fills.
+pub fn zero_gradients(net: &Net) -> Vec<Vec<f32>> {
+    net.parameters()
+        .iter()
+        .map(|p| vec![0.0; p.len()])
+        .collect()
+}
+
 /// What follows the last layer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum OutputMap {
@@ -92,7 +101,7 @@ impl Regression {
                 (&mut weight_grad[0], n_out, 1),
             );
             let bias_grad = &mut rest[0];
-            bias_grad.iter_mut().for_each(|g| *g = 0.0);
+            bias_grad.fill(0.0);
             for row in self.signal.chunks_exact(n_out) {
                 for (g, s) in bias_grad.iter_mut().zip(row) {
                     *g += s;
@@ -281,11 +290,7 @@ mod tests {
             let y: Vec<f32> = (0..rows * widths[3])
                 .map(|_| rng.random_range(-0.9..0.9))
                 .collect();
-            let mut gradients: Vec<Vec<f32>> = net
-                .parameters()
-                .iter()
-                .map(|p| vec![0.0; p.len()])
-                .collect();
+            let mut gradients = zero_gradients(&net);
             let mut regression = Regression::new();
             let loss = regression.step(&net, output, &x, &y, &mut gradients);
             let (burn_loss, burn_gradients) = burn_step(&net, output, &x, &y);

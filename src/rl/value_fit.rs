@@ -11,7 +11,7 @@
 
 use crate::nn::scaled::{check_box, normalise_into_box};
 use crate::nn::{Activation, ScaledMlp};
-use crate::rl::regression::{OutputMap, Regression};
+use crate::rl::regression::{zero_gradients, OutputMap, Regression};
 use crate::rl::sac::adam::Adam;
 use crate::rl::sac::net::Net;
 use crate::rl::{AgentError, RlError};
@@ -155,11 +155,7 @@ pub fn fit_value(
     let n_val = ((n as f64 * config.validation).round() as usize).min(n - 1);
     let (validation, train) = order.split_at(n_val);
     let mut train = train.to_vec();
-    let mut gradients: Vec<Vec<f32>> = net
-        .parameters()
-        .iter()
-        .map(|p| vec![0.0; p.len()])
-        .collect();
+    let mut gradients = zero_gradients(&net);
     let lengths: Vec<usize> = gradients.iter().map(Vec::len).collect();
     let mut adam = Adam::new(&lengths);
     let batches_per_epoch = train.len().div_ceil(config.batch_size);

@@ -237,8 +237,7 @@ impl<'a> OwnAgents<'a> {
                 *agent = use_own(Own::Agent(policy_guide))?;
             }
             ControllerSpec::Rlmpc(r) => {
-                let learned = matches!(r.guide, GuideChoice::Sac | GuideChoice::Distilled);
-                if learned && r.agent.is_none() {
+                if r.guide.follows_policy() && r.agent.is_none() {
                     r.agent = use_own(Own::Agent(r.guide))?;
                 }
                 if r.terminal_cost != CostForm::None && r.value.is_none() {
@@ -327,8 +326,9 @@ impl<'a> OwnAgents<'a> {
             let Own::Value(guide) = *what else {
                 continue;
             };
-            let learned = matches!(guide, GuideChoice::Sac | GuideChoice::Distilled);
-            let agent = learned.then(|| self.folder(kind, Own::Agent(guide)));
+            let agent = guide
+                .follows_policy()
+                .then(|| self.folder(kind, Own::Agent(guide)));
             let spec = ValueSpec {
                 model: model.to_path_buf(),
                 weather: weather.clone(),

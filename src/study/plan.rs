@@ -196,16 +196,18 @@ fn plan_file(file: StudyFile, place: &Place, out: &Path, text: &str) -> Result<V
         ));
     }
 
-    let teacher = match file.distilled.as_ref().and_then(|d| d.teacher.clone()) {
-        Some(table) => Some(
-            controller_spec(table, "", place).map_err(|m| format!("[distilled] teacher: {m}"))?,
-        ),
-        None => None,
-    };
     let template = file
         .distilled
         .as_ref()
-        .map(|d| d.template(teacher))
+        .map(|d| {
+            let teacher = d
+                .teacher
+                .clone()
+                .map(|table| controller_spec(table, "", place))
+                .transpose()
+                .map_err(|m| format!("[distilled] teacher: {m}"))?;
+            d.template(teacher)
+        })
         .transpose()?;
     let learning = Learning {
         agents: file.agents.as_ref(),
