@@ -123,14 +123,60 @@ fn a_model_planned_with_fewer_sub_steps_is_solved_as_simulated_before_any_fallba
     );
     // Step 2 restarts warm, on the planning problem, from that solution.
     assert_eq!(log[2].0, None);
-    // Without `plan substeps` the same failures end in the shifted plan, the cold solve
-    // uncapped.
-    let (plant, mut mpc, caps) = setup_recording(vec![None, failed, failed, None]);
+    // Without `plan substeps` the same failures, and those of the shorter horizons, end in
+    // the shifted plan, the cold solve uncapped.
+    let (plant, mut mpc, caps) = setup_recording(vec![None, failed, failed, failed, failed]);
     assert_eq!(
         run(&plant, &mut mpc, 2)[1].0.as_deref(),
         Some("shifted_plan")
     );
     assert_eq!(caps.borrow()[2], None);
+}
+
+/// Where every solve over the horizon (4 steps) fails, plain MPC solves cold over 2 steps,
+/// then over 1, each capped like a cold start, and applies the first success's input; the
+/// next step starts cold over the whole horizon (its plan over 1 step is not shifted).
+#[test]
+fn failed_solves_over_the_horizon_give_way_to_a_shorter_horizon() {
+    let failed = Some(SolveStatus::MaxIterations);
+    let (plant, mut mpc, caps) = setup_recording(vec![None, failed, failed, failed, None, None]);
+    let log = run(&plant, &mut mpc, 3);
+    assert_eq!(log[0].0, None);
+    assert_eq!(log[1].0.as_deref(), Some("shorter_horizon"));
+    assert_eq!(
+        log[1].2, "optimal",
+        "the shorter horizon's status is reported"
+    );
+    let cap = Some(COLD_ITERATIONS_BEFORE_SIMULATION_MODEL);
+    // Step 1: warm (SQP's primal-dual cap), cold (uncapped), over 2 and over 1 steps
+    // (capped); step 2: cold, uncapped, not warm from the one-step plan.
+    let warm_cap = Some(Sqp::default().warm_iteration_budget());
+    assert_eq!(caps.borrow()[1..], [warm_cap, None, cap, cap, None]);
+    assert_eq!(log[2].0, None);
+    // The input is that of plain MPC over one step from the same state.
+    let model = ghm::lang::load(Path::new("models/lettuce.ghm")).unwrap();
+    let (_, mut one_step) = {
+        let plant = Arc::new(Plant::new(model));
+        let mpc = Mpc::new(plant.clone(), 1, Box::new(Sqp::default())).unwrap();
+        (plant, mpc)
+    };
+    let forecast: Vec<f64> = (0..8).flat_map(|_| [50.0, 7e-4, 8.0, 0.006]).collect();
+    let p = plant.model.nominal_params();
+    let x0 = plant.model.initial_state();
+    let x1 = plant.step(&x0, &log[0].1, &forecast[..4], &p).next_state;
+    let y = plant.outputs(&x1, &log[0].1, &forecast[..4], &p);
+    let alone = one_step
+        .decide(&Observation {
+            step: 1,
+            state: &x1,
+            outputs: &y,
+            previous_input: &log[0].1,
+            forecast: &forecast,
+        })
+        .unwrap();
+    for (a, b) in log[1].1.iter().zip(&alone.input) {
+        assert!((a - b).abs() <= 1e-9, "{:?} vs {:?}", log[1].1, alone.input);
+    }
 }
 
 #[test]
@@ -149,10 +195,13 @@ fn warm_start_failure_falls_back_to_a_cold_start() {
 
 #[test]
 fn failed_warm_and_cold_solves_apply_the_shifted_plan() {
+    // Step 1: the warm and the cold solve fail, then those over 2 steps and over 1.
     let (plant, mut mpc) = setup(vec![
         None,
         Some(SolveStatus::MaxIterations),
         Some(SolveStatus::Infeasible),
+        Some(SolveStatus::NumericalError),
+        Some(SolveStatus::NumericalError),
     ]);
     let plan = {
         let log = run(&plant, &mut mpc, 1);
@@ -189,7 +238,7 @@ fn failed_warm_and_cold_solves_apply_the_shifted_plan() {
 
 #[test]
 fn failure_without_any_plan_holds_the_previous_input() {
-    let (plant, mut mpc) = setup(vec![Some(SolveStatus::NumericalError)]);
+    let (plant, mut mpc) = setup(vec![Some(SolveStatus::NumericalError); 3]);
     let log = run(&plant, &mut mpc, 1);
     assert_eq!(log[0].0.as_deref(), Some("hold_input"));
     assert_eq!(log[0].1, plant.model.start_input());
@@ -283,7 +332,7 @@ fn failure_without_a_plan_applies_the_guides_input_within_the_limits() {
 #[test]
 fn a_used_up_plan_gives_way_to_the_held_input() {
     let mut script = vec![None];
-    script.extend(vec![Some(SolveStatus::MaxIterations); 10]);
+    script.extend(vec![Some(SolveStatus::MaxIterations); 20]);
     let (plant, mut mpc) = setup(script);
     let log = run(&plant, &mut mpc, 5);
     assert_eq!(log[0].0, None);

@@ -99,6 +99,9 @@ crate::choice! {
         /// The planning model's solves failed and a cold start on the model the plant is
         /// simulated with succeeded (a model with `plan substeps` of its own).
         SimulationModel = "simulation_model",
+        /// Every solve over the horizon failed and a cold start over a shorter horizon
+        /// (a half, a quarter, …) succeeded: plain MPC over that horizon decided the step.
+        ShorterHorizon = "shorter_horizon",
         /// No solve succeeded: the previous plan, shifted by the steps since it was made.
         ShiftedPlan = "shifted_plan",
         /// No solve succeeded and no plan was left: the guide's own input.

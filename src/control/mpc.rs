@@ -27,9 +27,15 @@
 //!    four). Where this fallback exists, the cold starts of fallback 1 are capped at
 //!    [`COLD_ITERATIONS_BEFORE_SIMULATION_MODEL`] iterations, so a step does not spend the
 //!    solver's whole budget twice on the coarse problem before it;
-//! 3. `shifted_plan`: apply the second input of the last successful plan;
-//! 4. `guide_input` (RL-guided MPC only): the guide's own input;
-//! 5. `hold_input`: hold the previous input (within the bounds and rate limits).
+//! 3. `shorter_horizon` (plain MPC): solve cold over half the horizon, then a quarter, …,
+//!    and apply the first input of the first that succeeds. On the GreenLight tomato at
+//!    1 h, a night state where the screen closes and the air rides both the temperature
+//!    floor and the humidity ceiling ran out of iterations in every solve over 12 steps
+//!    (900 iterations, 27 s) and solved cold in 86 over 6. The step's plan is not kept:
+//!    the next step starts cold over the whole horizon;
+//! 4. `shifted_plan`: apply the second input of the last successful plan;
+//! 5. `guide_input` (RL-guided MPC only): the guide's own input;
+//! 6. `hold_input`: hold the previous input (within the bounds and rate limits).
 //!
 //! The step's record names the path taken, so a season's log shows every fallback.
 //!
@@ -108,6 +114,9 @@ pub struct Mpc {
     /// The plant as simulated, where MPC plans with fewer sub-steps, and its problem,
     /// built on first use: the last resort of plain MPC before a fallback input.
     simulation_model: Option<(Arc<Plant>, Option<Ocp>)>,
+    /// The problems over half the horizon, a quarter, …, built on first use: plain MPC's
+    /// last resort before a fallback input.
+    shorter_horizons: Vec<Ocp>,
 }
 
 impl Mpc {
@@ -141,6 +150,7 @@ impl Mpc {
             rules,
             bands: Bands::Planning,
             simulation_model,
+            shorter_horizons: Vec::new(),
         })
     }
 
@@ -155,6 +165,7 @@ impl Mpc {
         if let Some((_, ocp)) = &mut self.simulation_model {
             *ocp = None;
         }
+        self.shorter_horizons.clear();
         Ok(self)
     }
 
@@ -413,17 +424,61 @@ impl Mpc {
             Some(ocp) => ocp,
             None => built.insert(Ocp::with_bands(Arc::clone(plant), horizon, bands)?),
         };
-        ocp.set_problem(
-            observation.step,
-            observation.state,
-            observation.previous_input,
+        cold_problem(
+            ocp,
+            observation,
             &self.forecast,
+            inputs.as_deref(),
+            &mut self.start_x,
         )?;
-        match inputs {
-            Some(inputs) => ocp.rollout(&inputs, &mut self.start_x),
-            None => ocp.initial_point(&mut self.start_x),
-        }
         Ok(Some(self.solver.solve(ocp, Start::cold(&self.start_x))))
+    }
+
+    /// Plain MPC's last resort: the step's problem over half the horizon, then a quarter,
+    /// … down to one step (the planning model, its own terminal terms, the same bands),
+    /// each solved cold from the rules' roll-out where every input has a rule, else from
+    /// the held input, capped like the cold starts. Returns the first success and its
+    /// first input, with the effort of every attempt added to `effort`; `None` under
+    /// guidance (whose own input is its fallback) or where none succeeded.
+    fn solve_on_shorter_horizons(
+        &mut self,
+        observation: &Observation,
+        effort: &mut Effort,
+    ) -> Result<Option<(Solution, Vec<f64>)>, ControlError> {
+        if self.guidance.is_some() {
+            return Ok(None);
+        }
+        let inputs = self.rules_inputs(observation)?;
+        let mut start = Vec::new();
+        let horizons = shorter_horizons(self.ocp.horizon());
+        for (k, &horizon) in horizons.iter().enumerate() {
+            if k == self.shorter_horizons.len() {
+                let plant = Arc::clone(self.ocp.plant());
+                self.shorter_horizons
+                    .push(Ocp::with_bands(plant, horizon, self.bands)?);
+            }
+            let ocp = &mut self.shorter_horizons[k];
+            start.resize(ocp.n_vars(), 0.0);
+            cold_problem(
+                ocp,
+                observation,
+                &self.forecast,
+                inputs.as_deref(),
+                &mut start,
+            )?;
+            let solution = solve_capped(
+                self.solver.as_mut(),
+                Some(COLD_ITERATIONS_BEFORE_SIMULATION_MODEL),
+                ocp,
+                Start::cold(&start),
+            );
+            effort.add(&solution);
+            if solution.status.is_success() {
+                let input = ocp.input(&solution.x, 0).to_vec();
+                return Ok(Some((solution, input)));
+            }
+        }
+        Ok(None)
     }
 
     /// The fallback inputs when no solve succeeded.
@@ -474,6 +529,45 @@ impl Effort {
         self.iterations += solution.stats.iterations;
         self.corrections += solution.stats.inertia_corrections;
     }
+}
+
+/// Sets `ocp`'s problem at `observation` with `forecast` (padded to a horizon at least as
+/// long), and its cold start into `start`: the roll-out of `inputs` (the rules' inputs over
+/// a horizon at least as long; its first steps) where given, else the problem's initial
+/// point.
+fn cold_problem(
+    ocp: &mut Ocp,
+    observation: &Observation,
+    forecast: &[f64],
+    inputs: Option<&[f64]>,
+    start: &mut [f64],
+) -> Result<(), ControlError> {
+    ocp.set_problem(
+        observation.step,
+        observation.state,
+        observation.previous_input,
+        forecast,
+    )?;
+    match inputs {
+        Some(inputs) => {
+            let needed = ocp.horizon() * observation.previous_input.len();
+            ocp.rollout(&inputs[..needed], start)
+        }
+        None => ocp.initial_point(start),
+    }
+    Ok(())
+}
+
+/// The horizons of [`Mpc`]'s `shorter_horizon` fallback below `horizon`: half of it, a
+/// quarter, … down to one step.
+///
+/// ```text
+/// 12 → 6, 3, 1        2 → 1        1 → (none)
+/// ```
+fn shorter_horizons(horizon: usize) -> Vec<usize> {
+    std::iter::successors(Some(horizon / 2), |h| Some(h / 2))
+        .take_while(|&h| h >= 1)
+        .collect()
 }
 
 /// A solve capped at `limit` iterations; the cap is lifted afterwards.
@@ -555,6 +649,23 @@ impl Controller for Mpc {
                     fallback = Some(Fallback::SimulationModel);
                 }
             }
+        }
+        let mut shorter = None;
+        if !solution.status.is_success() {
+            shorter = self.solve_on_shorter_horizons(observation, &mut effort)?;
+        }
+        if let Some((short, input)) = shorter {
+            return Ok(Decision {
+                input,
+                record: StepRecord {
+                    solve_time_s: clock.elapsed().as_secs_f64(),
+                    iterations: effort.iterations,
+                    inertia_corrections: effort.corrections,
+                    status: Some(short.status),
+                    fallback: Some(Fallback::ShorterHorizon),
+                    terminal_region: None,
+                },
+            });
         }
         let status = solution.status;
         let mut terminal_region = None;

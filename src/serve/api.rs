@@ -85,7 +85,8 @@ pub struct DecideResponse {
     /// Time the controller took to decide, in milliseconds.
     pub solve_time_ms: f64,
     /// The fallback that produced the input when the first choice failed (`cold_start`,
-    /// `simulation_model`, `shifted_plan`, `guide_input`, `hold_input`); `null` otherwise.
+    /// `simulation_model`, `shorter_horizon`, `shifted_plan`, `guide_input`, `hold_input`);
+    /// `null` otherwise.
     pub fallback: Option<Fallback>,
     /// RL-guided MPC: the terminal region's state (`binding`, `inactive`); `null` otherwise.
     pub terminal_region: Option<String>,
