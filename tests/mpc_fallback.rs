@@ -1,7 +1,7 @@
 //! The MPC's fallback order, exercised with a solver that fails on purpose, and its
 //! forecast padding (built-in model, constant weather: no ../shared needed).
 
-use ghm::control::mpc::COLD_ITERATIONS_BEFORE_SIMULATION_MODEL;
+use ghm::control::mpc::LAST_RESORT_COLD_ITERATIONS;
 use ghm::control::{ControlError, Controller, Fallback, Guidance, Mpc, Observation};
 use ghm::model::Plant;
 use ghm::nlp::{Nlp, Ocp};
@@ -113,7 +113,7 @@ fn a_model_planned_with_fewer_sub_steps_is_solved_as_simulated_before_any_fallba
     assert_eq!(mpc.ocp().plant().model.substeps, 2);
     let log = run(&plant, &mut mpc, 3);
     // Step 1's cold solve on the planning model is capped; the one as simulated is not.
-    let cold_cap = Some(COLD_ITERATIONS_BEFORE_SIMULATION_MODEL);
+    let cold_cap = Some(LAST_RESORT_COLD_ITERATIONS);
     assert_eq!(caps.borrow()[2..4], [cold_cap, None]);
     assert_eq!(log[0].0, None);
     assert_eq!(log[1].0.as_deref(), Some("simulation_model"));
@@ -147,7 +147,7 @@ fn failed_solves_over_the_horizon_give_way_to_a_shorter_horizon() {
         log[1].2, "optimal",
         "the shorter horizon's status is reported"
     );
-    let cap = Some(COLD_ITERATIONS_BEFORE_SIMULATION_MODEL);
+    let cap = Some(LAST_RESORT_COLD_ITERATIONS);
     // Step 1: warm (SQP's primal-dual cap), cold (uncapped), over 2 and over 1 steps
     // (capped); step 2: cold, uncapped, not warm from the one-step plan.
     let warm_cap = Some(Sqp::default().warm_iteration_budget());
@@ -177,6 +177,25 @@ fn failed_solves_over_the_horizon_give_way_to_a_shorter_horizon() {
     for (a, b) in log[1].1.iter().zip(&alone.input) {
         assert!((a - b).abs() <= 1e-9, "{:?} vs {:?}", log[1].1, alone.input);
     }
+}
+
+/// A step decided over a shorter horizon leaves no plan behind: where the next step fails
+/// everywhere too, it holds the input rather than apply an older plan's, computed for a
+/// first input that was not applied.
+#[test]
+fn a_failure_after_a_shorter_horizon_holds_the_input() {
+    let failed = Some(SolveStatus::MaxIterations);
+    // Step 1: warm, cold and over 2 steps fail, over 1 succeeds. Step 2: cold, over 2 and
+    // over 1 fail.
+    let script = vec![None, failed, failed, failed, None, failed, failed, failed];
+    let (plant, mut mpc, caps) = setup_recording(script);
+    let log = run(&plant, &mut mpc, 3);
+    assert_eq!(log[1].0.as_deref(), Some("shorter_horizon"));
+    assert!(mpc.last_solution().is_none());
+    assert_eq!(log[2].0.as_deref(), Some("hold_input"));
+    assert_eq!(log[2].1, log[1].1);
+    // One solve at step 0, four at step 1, three at step 2 (no warm start).
+    assert_eq!(caps.borrow().len(), 1 + 4 + 3);
 }
 
 #[test]

@@ -25,15 +25,17 @@
 //!    as the plant is, whose problem the coarse one only approximates (on the GreenLight
 //!    tomato a state where one sub-step's problem ran out of iterations solved in 121 with
 //!    four). Where this fallback exists, the cold starts of fallback 1 are capped at
-//!    [`COLD_ITERATIONS_BEFORE_SIMULATION_MODEL`] iterations, so a step does not spend the
-//!    solver's whole budget twice on the coarse problem before it;
-//! 3. `shorter_horizon` (plain MPC): solve cold over half the horizon, then a quarter, …,
-//!    and apply the first input of the first that succeeds. On the GreenLight tomato at
-//!    1 h, a night state where the screen closes and the air rides both the temperature
-//!    floor and the humidity ceiling ran out of iterations in every solve over 12 steps
-//!    (900 iterations, 27 s) and solved cold in 86 over 6. The step's plan is not kept:
-//!    the next step starts cold over the whole horizon;
-//! 4. `shifted_plan`: apply the second input of the last successful plan;
+//!    [`LAST_RESORT_COLD_ITERATIONS`] iterations, so a step does not spend the solver's
+//!    whole budget twice on the coarse problem before it;
+//! 3. `shorter_horizon` (plain MPC): solve cold over half the horizon, then a quarter, …
+//!    down to one step (each capped at [`LAST_RESORT_COLD_ITERATIONS`]), and apply the
+//!    first input of the first that succeeds: on the GreenLight tomato at 1 h, a night
+//!    state where the screen closes ran out of iterations over 12 steps and solved over 6
+//!    (`docs/benchmarks.md`, "The last resort over shorter horizons"). Neither that plan
+//!    nor an older one is kept: the next step starts cold over the whole horizon, and
+//!    should it fail, holds the input;
+//! 4. `shifted_plan`: apply the input the last successful plan holds for this step (its
+//!    second where it was computed at the step before);
 //! 5. `guide_input` (RL-guided MPC only): the guide's own input;
 //! 6. `hold_input`: hold the previous input (within the bounds and rate limits).
 //!
@@ -79,20 +81,26 @@ pub trait Guidance: Send {
     fn region_status(&self, ocp: &Ocp, x: &[f64]) -> Option<String>;
 }
 
-/// Iteration cap of plain MPC's cold solves on the planning model where the
-/// `simulation_model` fallback follows them. On the GreenLight tomato at 1 h a cold solve
-/// that succeeds took 60 iterations at the season's first step and 25 at a step's cold
-/// restart (the first two Bleiswijk days); each of the 14 failed steps of the 60-day season
-/// before the fallback ran two cold solves to the interior point's limit of 500 iterations,
-/// and with the fallback behind them such a step took 16 to 37 s. The cap is over three
-/// times the successful solves.
-pub const COLD_ITERATIONS_BEFORE_SIMULATION_MODEL: usize = 200;
+/// Iteration cap of plain MPC's cold solves where a last resort follows them: the cold
+/// starts on the planning model where the `simulation_model` fallback follows, and each
+/// solve of the `shorter_horizon` fallback but the last. On the GreenLight tomato at 1 h a
+/// cold solve that succeeds took 60 iterations at the season's first step and 25 at a
+/// step's cold restart (the first two Bleiswijk days); each of the 14 failed steps of the
+/// 60-day season before the fallback ran two cold solves to the interior point's limit of
+/// 500 iterations, and with the fallback behind them such a step took 16 to 37 s. The cap
+/// is over three times the successful solves. On a model that plans as it simulates (the
+/// lettuce, the CSTR) and under guidance, the cold starts keep the solver's own limit, as
+/// the seasons of `docs/results.md` were run: there they are the step's last full-horizon
+/// solve, and stopping one early trades a solution for a shorter horizon's.
+pub const LAST_RESORT_COLD_ITERATIONS: usize = 200;
 
 /// The economic MPC controller.
 pub struct Mpc {
     ocp: Ocp,
     solver: Box<dyn Solver>,
-    /// The last successful solution, in the time frame of the step it was computed at.
+    /// The last successful solution over the whole horizon, in the time frame of the step
+    /// it was computed at; dropped when a step is decided by a shorter horizon, whose
+    /// input departs from its plan.
     last: Option<Solution>,
     /// How many steps ago `last` was computed.
     last_age: usize,
@@ -189,7 +197,8 @@ impl Mpc {
         &mut self.ocp
     }
 
-    /// The last successful solution (its plan starts at the step it was computed for).
+    /// The last successful solution over the whole horizon (its plan starts at the step it
+    /// was computed for); `None` after a step decided by the `shorter_horizon` fallback.
     pub fn last_solution(&self) -> Option<&Solution> {
         self.last.as_ref()
     }
@@ -341,7 +350,7 @@ impl Mpc {
         // Plain MPC with the simulation model behind it caps its cold solves here.
         let limit = self
             .simulation_model_follows()
-            .then_some(COLD_ITERATIONS_BEFORE_SIMULATION_MODEL);
+            .then_some(LAST_RESORT_COLD_ITERATIONS);
         if self.guidance.is_none() && self.rules_roll_out(observation)? {
             let ruled = solve_capped(
                 self.solver.as_mut(),
@@ -437,7 +446,7 @@ impl Mpc {
     /// Plain MPC's last resort: the step's problem over half the horizon, then a quarter,
     /// … down to one step (the planning model, its own terminal terms, the same bands),
     /// each solved cold from the rules' roll-out where every input has a rule, else from
-    /// the held input, capped like the cold starts. Returns the first success and its
+    /// the held input, capped at [`LAST_RESORT_COLD_ITERATIONS`]. Returns the first success and its
     /// first input, with the effort of every attempt added to `effort`; `None` under
     /// guidance (whose own input is its fallback) or where none succeeded.
     fn solve_on_shorter_horizons(
@@ -450,7 +459,7 @@ impl Mpc {
         }
         let inputs = self.rules_inputs(observation)?;
         let mut start = Vec::new();
-        let horizons = shorter_horizons(self.ocp.horizon());
+        let horizons = halved_horizons(self.ocp.horizon());
         for (k, &horizon) in horizons.iter().enumerate() {
             if k == self.shorter_horizons.len() {
                 let plant = Arc::clone(self.ocp.plant());
@@ -468,7 +477,7 @@ impl Mpc {
             )?;
             let solution = solve_capped(
                 self.solver.as_mut(),
-                Some(COLD_ITERATIONS_BEFORE_SIMULATION_MODEL),
+                Some(LAST_RESORT_COLD_ITERATIONS),
                 ocp,
                 Start::cold(&start),
             );
@@ -550,7 +559,7 @@ fn cold_problem(
     )?;
     match inputs {
         Some(inputs) => {
-            let needed = ocp.horizon() * observation.previous_input.len();
+            let needed = ocp.horizon() * ocp.plant().layout.nu;
             ocp.rollout(&inputs[..needed], start)
         }
         None => ocp.initial_point(start),
@@ -564,7 +573,7 @@ fn cold_problem(
 /// ```text
 /// 12 → 6, 3, 1        2 → 1        1 → (none)
 /// ```
-fn shorter_horizons(horizon: usize) -> Vec<usize> {
+fn halved_horizons(horizon: usize) -> Vec<usize> {
     std::iter::successors(Some(horizon / 2), |h| Some(h / 2))
         .take_while(|&h| h >= 1)
         .collect()
@@ -650,24 +659,7 @@ impl Controller for Mpc {
                 }
             }
         }
-        let mut shorter = None;
-        if !solution.status.is_success() {
-            shorter = self.solve_on_shorter_horizons(observation, &mut effort)?;
-        }
-        if let Some((short, input)) = shorter {
-            return Ok(Decision {
-                input,
-                record: StepRecord {
-                    solve_time_s: clock.elapsed().as_secs_f64(),
-                    iterations: effort.iterations,
-                    inertia_corrections: effort.corrections,
-                    status: Some(short.status),
-                    fallback: Some(Fallback::ShorterHorizon),
-                    terminal_region: None,
-                },
-            });
-        }
-        let status = solution.status;
+        let mut status = solution.status;
         let mut terminal_region = None;
         let input = if status.is_success() {
             let u = self.ocp.input(&solution.x, 0).to_vec();
@@ -677,6 +669,13 @@ impl Controller for Mpc {
                 .and_then(|g| g.region_status(&self.ocp, &solution.x));
             self.last = Some(solution);
             self.last_age = 0;
+            u
+        } else if let Some((short, u)) = self.solve_on_shorter_horizons(observation, &mut effort)? {
+            // The input departs from every plan over the whole horizon: none is shifted
+            // into the next step.
+            self.last = None;
+            status = short.status;
+            fallback = Some(Fallback::ShorterHorizon);
             u
         } else {
             let (u, path) = self.fallback_input(observation);

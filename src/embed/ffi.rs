@@ -71,7 +71,8 @@ pub struct GhmDecision {
     pub solve_time_s: f64,
     /// Whether the solver (if any) reached its tolerance.
     pub solved: bool,
-    /// Whether a fallback (cold start, shifted plan, guide, held input) gave the input.
+    /// Whether a fallback (cold start, simulation model, shorter horizon, shifted plan,
+    /// guide, held input) gave the input.
     pub fallback: bool,
 }
 
