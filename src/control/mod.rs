@@ -102,7 +102,8 @@ crate::choice! {
         /// Every solve over the horizon failed and a cold start over a shorter horizon
         /// (a half, a quarter, …) succeeded: plain MPC over that horizon decided the step.
         ShorterHorizon = "shorter_horizon",
-        /// No solve succeeded: the previous plan, shifted by the steps since it was made.
+        /// No solve succeeded: the previous plan, shifted by the steps since it was made
+        /// (none is kept past a step decided over a shorter horizon).
         ShiftedPlan = "shifted_plan",
         /// No solve succeeded and no plan was left: the guide's own input.
         GuideInput = "guide_input",

@@ -68,7 +68,8 @@ typedef struct GhmDecision {
   double solve_time_s;
   // Whether the solver (if any) reached its tolerance.
   bool solved;
-  // Whether a fallback (cold start, shifted plan, guide, held input) gave the input.
+  // Whether a fallback (cold start, simulation model, shorter horizon, shifted plan,
+  // guide, held input) gave the input.
   bool fallback;
 } GhmDecision;
 
