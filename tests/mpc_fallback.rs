@@ -70,9 +70,14 @@ fn setup_with(
     (plant, mpc, caps)
 }
 
+/// The constant weather every scripted season runs on: 8 rows of 4 disturbances.
+fn constant_weather() -> Vec<f64> {
+    (0..8).flat_map(|_| [50.0, 7e-4, 8.0, 0.006]).collect()
+}
+
 /// Runs `steps` MPC steps on constant weather; returns each step's fallback and input.
 fn run(plant: &Plant, mpc: &mut Mpc, steps: usize) -> Vec<(Option<String>, Vec<f64>, String)> {
-    let forecast: Vec<f64> = (0..8).flat_map(|_| [50.0, 7e-4, 8.0, 0.006]).collect();
+    let forecast = constant_weather();
     let p = plant.model.nominal_params();
     let mut x = plant.model.initial_state();
     let mut u_prev = plant.model.start_input();
@@ -155,12 +160,8 @@ fn failed_solves_over_the_horizon_give_way_to_a_shorter_horizon() {
     assert_eq!(log[2].0, None);
     // The input is that of plain MPC over one step from the same state.
     let model = ghm::lang::load(Path::new("models/lettuce.ghm")).unwrap();
-    let (_, mut one_step) = {
-        let plant = Arc::new(Plant::new(model));
-        let mpc = Mpc::new(plant.clone(), 1, Box::new(Sqp::default())).unwrap();
-        (plant, mpc)
-    };
-    let forecast: Vec<f64> = (0..8).flat_map(|_| [50.0, 7e-4, 8.0, 0.006]).collect();
+    let mut one_step = Mpc::new(Arc::new(Plant::new(model)), 1, Box::new(Sqp::default())).unwrap();
+    let forecast = constant_weather();
     let p = plant.model.nominal_params();
     let x0 = plant.model.initial_state();
     let x1 = plant.step(&x0, &log[0].1, &forecast[..4], &p).next_state;
@@ -229,7 +230,7 @@ fn failed_warm_and_cold_solves_apply_the_shifted_plan() {
         mpc.ocp().input(&s.x, 1).to_vec()
     };
     // Re-run from the same controller state: step 1 fails twice.
-    let forecast: Vec<f64> = (0..8).flat_map(|_| [50.0, 7e-4, 8.0, 0.006]).collect();
+    let forecast = constant_weather();
     let p = plant.model.nominal_params();
     let x0 = plant.model.initial_state();
     let u0 = mpc.ocp().input(&mpc.last_solution().unwrap().x, 0).to_vec();
@@ -324,7 +325,7 @@ fn first_decision(
 /// (0.12, 0.75, 65). Without a guide's input it holds the start input.
 #[test]
 fn failure_without_a_plan_applies_the_guides_input_within_the_limits() {
-    let forecast: Vec<f64> = (0..8).flat_map(|_| [50.0, 7e-4, 8.0, 0.006]).collect();
+    let forecast = constant_weather();
     for (offered, applied, path) in [
         (
             Some(vec![0.5, 2.0, 120.0]),

@@ -82,8 +82,8 @@ pub trait Guidance: Send {
 }
 
 /// Iteration cap of plain MPC's cold solves where a last resort follows them: the cold
-/// starts on the planning model where the `simulation_model` fallback follows, and each
-/// solve of the `shorter_horizon` fallback but the last. On the GreenLight tomato at 1 h a
+/// starts on the planning model where the `simulation_model` fallback follows, and every
+/// solve of the `shorter_horizon` fallback. On the GreenLight tomato at 1 h a
 /// cold solve that succeeds took 60 iterations at the season's first step and 25 at a
 /// step's cold restart (the first two Bleiswijk days); each of the 14 failed steps of the
 /// 60-day season before the fallback ran two cold solves to the interior point's limit of
@@ -446,9 +446,9 @@ impl Mpc {
     /// Plain MPC's last resort: the step's problem over half the horizon, then a quarter,
     /// … down to one step (the planning model, its own terminal terms, the same bands),
     /// each solved cold from the rules' roll-out where every input has a rule, else from
-    /// the held input, capped at [`LAST_RESORT_COLD_ITERATIONS`]. Returns the first success and its
-    /// first input, with the effort of every attempt added to `effort`; `None` under
-    /// guidance (whose own input is its fallback) or where none succeeded.
+    /// the held input, capped at [`LAST_RESORT_COLD_ITERATIONS`]. Returns the first
+    /// success and its first input, with the effort of every attempt added to `effort`;
+    /// `None` under guidance (whose own input is its fallback) or where none succeeded.
     fn solve_on_shorter_horizons(
         &mut self,
         observation: &Observation,
