@@ -415,8 +415,13 @@ fn train_checkpoints_resumes_and_ships_a_policy_that_policy_runs() {
     resume.extend(short);
     let (ok, out, err) = ghm(&resume);
     assert!(ok && out.contains("resuming"), "{out}{err}");
-    // The checkpoint keeps the discount and the batch it was trained with.
-    for (option, value) in [("--gamma", "0.9"), ("--batch-size", "128")] {
+    // The checkpoint keeps the discount, the batch and the learning rate it was trained
+    // with.
+    for (option, value) in [
+        ("--gamma", "0.9"),
+        ("--batch-size", "128"),
+        ("--learning-rate", "0.001"),
+    ] {
         let mut other = resume.clone();
         other.extend([option, value]);
         let (ok, _, err) = ghm(&other);
@@ -428,6 +433,11 @@ fn train_checkpoints_resumes_and_ships_a_policy_that_policy_runs() {
     let (ok, _, err) = ghm(&["train", "models/lettuce.ghm", "--gamma", "1.5"]);
     assert!(
         !ok && err.contains("gamma") && err.contains("(0, 1]"),
+        "{err}"
+    );
+    let (ok, _, err) = ghm(&["train", "models/lettuce.ghm", "--learning-rate", "0"]);
+    assert!(
+        !ok && err.contains("--learning-rate 0") && err.contains("positive"),
         "{err}"
     );
     let season = temp_dir("policy");

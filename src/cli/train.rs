@@ -49,6 +49,10 @@ pub struct TrainArgs {
     /// Transitions per gradient step [default: 1024].
     #[arg(long, value_name = "N")]
     pub batch_size: Option<usize>,
+    /// Initial learning rate of the actor, the critics and the entropy coefficient,
+    /// decaying linearly to zero [default: 5e-3, the paper's].
+    #[arg(long, value_name = "LR")]
+    pub learning_rate: Option<f64>,
     /// Write a checkpoint every N episodes (and at the end).
     #[arg(long, value_name = "N", default_value_t = TrainSpec::default().checkpoint_every)]
     pub checkpoint_every: usize,
@@ -79,6 +83,9 @@ impl TrainArgs {
             checkpoint_every: self.checkpoint_every,
             gamma: self.gamma.unwrap_or(TrainSpec::default().gamma),
             batch_size: self.batch_size.unwrap_or(TrainSpec::default().batch_size),
+            learning_rate: self
+                .learning_rate
+                .unwrap_or(TrainSpec::default().learning_rate),
         }
     }
 
@@ -191,13 +198,14 @@ fn recorded_command(summary: &serde_json::Value) -> String {
     }
 }
 
-/// Refuses `--episodes`, `--warmup`, `--gamma`, `--batch-size` and `--seed` that differ
-/// from a resumed training's.
+/// Refuses `--episodes`, `--warmup`, `--gamma`, `--batch-size`, `--learning-rate` and
+/// `--seed` that differ from a resumed training's.
 fn check_same_settings(args: &TrainArgs, config: &SacConfig) -> Result<(), CliError> {
     same_as_kept("--episodes", args.episodes, config.episodes)?;
     same_as_kept("--warmup", args.warmup, config.warmup_episodes)?;
     same_as_kept("--gamma", args.gamma, config.gamma)?;
     same_as_kept("--batch-size", args.batch_size, config.batch_size)?;
+    same_as_kept("--learning-rate", args.learning_rate, config.learning_rate)?;
     same_as_kept("--seed", args.seed, config.seed)
 }
 

@@ -33,6 +33,7 @@ pub(super) struct Agents {
     checkpoint_every: usize,
     gamma: f64,
     batch_size: usize,
+    learning_rate: f64,
     /// The stochastic scenarios' agents (and value networks) are trained on the perturbed
     /// plant (the scenarios' δ); otherwise every scenario uses the nominal plant's.
     stochastic: bool,
@@ -53,6 +54,7 @@ impl Default for Agents {
             checkpoint_every: train.checkpoint_every,
             gamma: train.gamma,
             batch_size: train.batch_size,
+            learning_rate: train.learning_rate,
             stochastic: true,
             trajectories: value.trajectories,
             spread: value.spread,
@@ -296,6 +298,7 @@ impl<'a> OwnAgents<'a> {
                     checkpoint_every: agents.checkpoint_every,
                     gamma: agents.gamma,
                     batch_size: agents.batch_size,
+                    learning_rate: agents.learning_rate,
                 };
                 let folder = self.folder(kind, Own::Agent(GuideChoice::Sac));
                 jobs.push(job(Work::Train(spec), Vec::new(), folder, "training", kind));

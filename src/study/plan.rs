@@ -560,6 +560,7 @@ mod tests {
             warmup = 1
             gamma = 0.99
             batch_size = 64
+            learning_rate = 1e-3
             [[controllers]]
             name = "SAC"
             kind = "policy"
@@ -593,9 +594,10 @@ mod tests {
         };
         assert!(train.stochastic && train.uncertainty == 0.05 && train.episodes == 3);
         assert_eq!((train.gamma, train.batch_size), (0.99, 64));
+        let config = train.config();
         assert_eq!(
-            (train.config().gamma, train.config().batch_size),
-            (0.99, 64)
+            (config.gamma, config.batch_size, config.learning_rate),
+            (0.99, 64, 1e-3)
         );
         let Work::Value(value) = &jobs[4].work else {
             panic!("{:?}", jobs[4].work);
