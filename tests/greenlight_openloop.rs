@@ -340,7 +340,9 @@ const READINGS: [(&str, &[&str]); 6] = [
 fn compared_points(steps: usize) -> Vec<usize> {
     const DAY_S: usize = 86_400;
     const PERIOD_S: usize = 300;
-    (0..steps).filter(|k| (k * PERIOD_S) % DAY_S != 0).collect()
+    (0..steps)
+        .filter(|k| !(k * PERIOD_S).is_multiple_of(DAY_S))
+        .collect()
 }
 
 /// The readings whose mean over `points` (`ours`, in [`READINGS`]' order) differs from

@@ -225,7 +225,7 @@ fn a_season_optimum_resumed_from_a_checkpoint_reaches_the_same_optimum() {
     struct EveryFifth(Arc<Mutex<Vec<Checkpoint>>>);
     impl CheckpointSink for EveryFifth {
         fn wants(&mut self, iteration: usize) -> bool {
-            iteration % 5 == 0
+            iteration.is_multiple_of(5)
         }
         fn keep(&mut self, checkpoint: &Checkpoint) {
             self.0.lock().unwrap().push(checkpoint.clone());

@@ -243,7 +243,7 @@ impl Normalizer {
     /// Errors: [`AgentError::BatchShape`].
     pub fn update_batch(&mut self, rows: &[f64]) -> Result<(), AgentError> {
         let w = self.width();
-        if w == 0 || rows.len() % w != 0 {
+        if w == 0 || !rows.len().is_multiple_of(w) {
             if rows.is_empty() {
                 return Ok(());
             }

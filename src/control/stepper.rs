@@ -291,7 +291,7 @@ impl Stepper {
         let l = plant.layout;
         size("state", r.state, l.nx)?;
         size("previous input", r.previous_input, l.nu)?;
-        if l.nd > 0 && r.forecast.len() % l.nd != 0 {
+        if l.nd > 0 && !r.forecast.len().is_multiple_of(l.nd) {
             return Err(StepError::ForecastShape {
                 given: r.forecast.len(),
                 width: l.nd,

@@ -10,9 +10,10 @@
 //!   Hessian in its lanes. The cost is a small multiple of one evaluation and no dense
 //!   `n × n` second-order dual is ever formed.
 //!
-//! The reverse sweep skips what the inputs not chosen cannot change
-//! ([`super::activity`]): the adjoints of passive slots, and the zero lanes of a passive
-//! factor's partial.
+//! Both sweeps skip what the inputs not chosen cannot change ([`super::activity`]): the
+//! forward sweep the zero lanes of passive values, the reverse sweep the adjoints of
+//! passive slots and the zero lanes of a passive factor's partial. Both run on the widest
+//! vector unit the processor has ([`super::wide`]).
 //!
 //! * The same along chosen directions `V` ([`Derivatives::hessian_along`]): `∇²(Σ wᵢ outᵢ) V`
 //!   in one forward-over-reverse pass per [`LANES`] directions, for a step whose
@@ -22,7 +23,7 @@
 
 use super::activity::{active_args, is_active, ActiveArgs, FIRST_ONLY, SECOND_ONLY};
 use super::lanes::{Lanes, LANES};
-use super::{ColumnGroups, Op, Real, Sparsity, Tape, Workspace};
+use super::{wide, ColumnGroups, Op, Real, Sparsity, Tape, Workspace};
 
 type Lane = Lanes<f64>;
 
@@ -137,7 +138,7 @@ impl Derivatives {
         let n = self.wrt.len();
         let cols = self.seed(x, chunk);
         self.ws.slots[..tape.n_inputs].copy_from_slice(&self.inputs);
-        tape.run(&mut self.ws);
+        wide::forward(tape, &self.active, &mut self.ws);
         for (row, &s) in tape.outputs.iter().enumerate() {
             let d = &self.ws.slots[s as usize];
             self.result.values[row] = d.re;
@@ -150,7 +151,7 @@ impl Derivatives {
 
     /// The adjoints of `Σ weights[i] · output[i]` over the lanes the last forward run left.
     fn reverse(&mut self, tape: &Tape, weights: &[f64]) {
-        reverse_sweep(
+        wide::reverse(
             tape,
             &self.active,
             &self.ws,
@@ -158,6 +159,16 @@ impl Derivatives {
             &mut self.adjoint,
             &mut self.live,
         );
+    }
+
+    /// The adjoint of input `i` the last reverse sweep left: zero where nothing weighted
+    /// depends on it.
+    fn adjoint_of(&self, i: usize) -> Lane {
+        if self.live[i] {
+            self.adjoint[i]
+        } else {
+            Lane::from(0.0)
+        }
     }
 
     /// Values and Jacobian at `x`.
@@ -190,7 +201,7 @@ impl Derivatives {
                 }
             }
             self.ws.slots[..tape.n_inputs].copy_from_slice(&self.inputs);
-            tape.run(&mut self.ws);
+            wide::forward(tape, &self.active, &mut self.ws);
             for (row, &s) in tape.outputs.iter().enumerate() {
                 let d = &self.ws.slots[s as usize];
                 self.result.values[row] = d.re;
@@ -250,16 +261,16 @@ impl Derivatives {
                 }
             }
             self.ws.slots[..tape.n_inputs].copy_from_slice(&self.inputs);
-            tape.run(&mut self.ws);
+            wide::forward(tape, &self.active, &mut self.ws);
             for (row, &s) in tape.outputs.iter().enumerate() {
                 self.result.values[row] = self.ws.slots[s as usize].re;
             }
             self.reverse(tape, weights);
             for (r, &i) in self.wrt.iter().enumerate() {
-                let a = &self.adjoint[i];
+                let a = self.adjoint_of(i);
                 gradient[r] = a.re;
                 for (l, col) in cols.clone().enumerate() {
-                    product[col * n + r] = lane(a, l);
+                    product[col * n + r] = lane(&a, l);
                 }
             }
         }
@@ -274,10 +285,10 @@ impl Derivatives {
             let cols = self.forward(tape, x, chunk);
             self.reverse(tape, weights);
             for (k, &i) in self.wrt.iter().enumerate() {
-                let a = &self.adjoint[i];
+                let a = self.adjoint_of(i);
                 self.result.gradient[k] = a.re;
                 for (l, col) in cols.clone().enumerate() {
-                    self.result.hessian[k * n + col] = lane(a, l);
+                    self.result.hessian[k * n + col] = lane(&a, l);
                 }
             }
         }
@@ -285,8 +296,49 @@ impl Derivatives {
     }
 }
 
+/// Runs the tape on [`Lanes`] numbers whose inputs are in place in `ws`, without the
+/// lanes that are known to be zero: a passive instruction (`active`, from
+/// [`active_args`]) is evaluated on floats, and a product, quotient, sum or difference
+/// with one passive argument scales or copies the active one's lanes instead of forming
+/// the dual product or sum with zero lanes. The same numbers as [`Tape::run`], up to the
+/// sign of a zero lane; passive slots keep the zero lanes they had (every workspace starts
+/// with them, and only passive values are ever written there).
+// Inlined into the functions of `wide` compiled for wider vector units.
+#[inline(always)]
+pub(crate) fn forward_sweep(tape: &Tape, active: &[ActiveArgs], ws: &mut Workspace<Lane>) {
+    let s = &mut ws.slots;
+    assert!(
+        s.len() >= tape.n_slots() && active.len() == tape.instructions().len(),
+        "a workspace or activity of another tape"
+    );
+    for (ins, &args) in tape.instructions().iter().zip(active) {
+        let [a, b, c] = ins.args.map(|slot| slot as usize);
+        // SAFETY: every slot an instruction reads or writes is below `n_slots`
+        // (`Tape::checked`), which is at most `s.len()` (asserted above).
+        let (da, db, dc) = unsafe { (s.get_unchecked(a), s.get_unchecked(b), s.get_unchecked(c)) };
+        let value = match (ins.op, args) {
+            (op, 0) => Lane::from(op.apply(da.re, db.re, dc.re)),
+            (Op::Mul, FIRST_ONLY) => Lane::new(da.re * db.re, da.eps * db.re),
+            (Op::Mul, SECOND_ONLY) => Lane::new(da.re * db.re, db.eps * da.re),
+            (Op::Add, FIRST_ONLY) => Lane::new(da.re + db.re, da.eps),
+            (Op::Add, SECOND_ONLY) => Lane::new(da.re + db.re, db.eps),
+            (Op::Sub, FIRST_ONLY) => Lane::new(da.re - db.re, da.eps),
+            (Op::Sub, SECOND_ONLY) => Lane::new(da.re - db.re, -db.eps),
+            (Op::Div, FIRST_ONLY) => {
+                // The rounding of the dual quotient, `(a′·b − 0·a) / b²`, without the zero.
+                let inv = db.re.recip();
+                Lane::new(da.re * inv, da.eps * db.re * inv * inv)
+            }
+            (op, _) => op.apply(*da, *db, *dc),
+        };
+        // SAFETY: as above.
+        unsafe { *s.get_unchecked_mut(ins.out as usize) = value };
+    }
+}
+
 /// Accumulates adjoints `∂(Σ wᵢ outᵢ)/∂slot` over `T`, from the values left in `ws` by a
-/// forward run.
+/// forward run. `adjoint[s]` holds slot `s`'s where `live[s]`; elsewhere it is left as it
+/// was and stands for zero.
 ///
 /// Only slots that reach an output of non-zero weight through the branches taken are
 /// visited (`live`, one flag per slot): the untaken branch of an `if`, `min` or `max`
@@ -298,6 +350,8 @@ impl Derivatives {
 /// Passive slots (`active`, from [`active_args`]) get no adjoint either: nothing chosen
 /// depends on them. A product or quotient with a passive argument passes the adjoint on
 /// scaled by a float, which is the dual product with zero lanes, without them.
+// Inlined into the functions of `wide` compiled for wider vector units.
+#[inline(always)]
 pub(crate) fn reverse_sweep<T: Real>(
     tape: &Tape,
     active: &[ActiveArgs],
@@ -306,29 +360,45 @@ pub(crate) fn reverse_sweep<T: Real>(
     adjoint: &mut [T],
     live: &mut [bool],
 ) {
-    for a in adjoint.iter_mut() {
-        *a = T::zero();
-    }
+    let n_slots = tape.n_slots();
+    assert!(
+        adjoint.len() >= n_slots && live.len() >= n_slots && ws.slots.len() >= n_slots,
+        "adjoints or a workspace too small for their tape"
+    );
+    // An adjoint is written before it is read (its slot's users come after it on the
+    // tape), so none is zeroed first: the first increment of a slot sets it, and `live`
+    // says which hold one. Zeroing every adjoint was a twelfth of a Hessian.
     live.fill(false);
+    // SAFETY (every `unchecked` below): every slot is below `n_slots` (`Tape::checked`),
+    // which is at most the lengths asserted above.
+    let accumulate = |adjoint: &mut [T], live: &mut [bool], slot: usize, increment: T| unsafe {
+        if *live.get_unchecked(slot) {
+            *adjoint.get_unchecked_mut(slot) += increment;
+        } else {
+            *adjoint.get_unchecked_mut(slot) = increment;
+            *live.get_unchecked_mut(slot) = true;
+        }
+    };
     for (&s, &w) in tape.outputs.iter().zip(weights) {
-        adjoint[s as usize] += T::from(w);
-        live[s as usize] |= w != 0.0;
+        if w != 0.0 {
+            accumulate(adjoint, live, s as usize, T::from(w));
+        }
     }
     let v = &ws.slots;
     for (ins, &args) in tape.instructions().iter().zip(active).rev() {
-        if args == 0 || !live[ins.out as usize] {
+        let out = ins.out as usize;
+        if args == 0 || !unsafe { *live.get_unchecked(out) } {
             continue;
         }
         // No skipping on `g == 0` beyond `live`: duals compare by real part only, and a
         // zero real part can carry non-zero second-order lanes.
-        let g = adjoint[ins.out as usize];
-        let [a, b, c] = ins.args;
-        let (va, vb, vc) = (v[a as usize].re(), v[b as usize].re(), v[c as usize].re());
+        let g = unsafe { *adjoint.get_unchecked(out) };
+        let [a, b, c] = ins.args.map(|slot| slot as usize);
+        let (da, db, dc) = unsafe { (v.get_unchecked(a), v.get_unchecked(b), v.get_unchecked(c)) };
+        let (va, vb, vc) = (da.re(), db.re(), dc.re());
         let mut pass = |k: usize, increment: T| {
             if is_active(args, k) {
-                let slot = ins.args[k] as usize;
-                adjoint[slot] += increment;
-                live[slot] = true;
+                accumulate(adjoint, live, ins.args[k] as usize, increment);
             }
         };
         // The linear ops pass the adjoint on as it is: no product of duals needed.
@@ -366,14 +436,19 @@ pub(crate) fn reverse_sweep<T: Real>(
             pass(k, g);
             continue;
         }
-        let p = ins.op.partials(
-            v[a as usize],
-            v[b as usize],
-            v[c as usize],
-            v[ins.out as usize],
-        );
-        for (k, &partial) in p.iter().enumerate().take(ins.op.arity()) {
-            pass(k, g * partial);
+        let p = ins
+            .op
+            .partials(*da, *db, *dc, unsafe { *v.get_unchecked(out) });
+        // Unrolled, not a loop over `p`: the loop read the partials back from memory in
+        // pieces other than those they were written in, and stalled on every read.
+        let [p0, p1, p2] = p;
+        let arity = ins.op.arity();
+        pass(0, g * p0);
+        if arity > 1 {
+            pass(1, g * p1);
+        }
+        if arity > 2 {
+            pass(2, g * p2);
         }
     }
 }
@@ -401,8 +476,9 @@ pub fn gradient_f64(tape: &Tape, x: &[f64], weights: &[f64]) -> Vec<f64> {
     let everything: Vec<usize> = (0..tape.n_inputs).collect();
     let active = active_args(tape, &everything);
     reverse_sweep(tape, &active, &ws, weights, &mut adjoint, &mut live);
-    adjoint.truncate(tape.n_inputs);
-    adjoint
+    (0..tape.n_inputs)
+        .map(|i| if live[i] { adjoint[i] } else { 0.0 })
+        .collect()
 }
 
 #[cfg(test)]

@@ -155,12 +155,16 @@ impl<T: DualNum> DivAssign<T> for LaneVector<T> {
 /// assert_eq!(&z.eps.0[..3], &[30.0, 25.0, 0.0]);
 /// assert_eq!(z.exp().eps.0[1], 75f64.exp() * 25.0);
 /// ```
+// The lanes first, at the start of the number: copies of it then move them in the
+// vector-register pieces its arithmetic reads, and a read never straddles two earlier
+// writes (whose forwarding stalls made the sweeps of `super::wide` slower than plain ones).
 #[derive(Clone, Copy, Debug)]
+#[repr(C)]
 pub struct Lanes<T> {
-    /// The value.
-    pub re: T,
     /// The directional derivatives.
     pub eps: LaneVector<T>,
+    /// The value.
+    pub re: T,
 }
 
 impl<T: DualNum> Lanes<T> {

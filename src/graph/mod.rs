@@ -54,6 +54,7 @@ mod lanes;
 mod op;
 mod sparsity;
 mod tape;
+mod wide;
 
 pub use coloring::ColumnGroups;
 pub use derivative::{gradient_f64, Derivatives, Evaluation};

@@ -136,7 +136,9 @@ impl Op {
     }
 
     /// The value of the op. `b` and `c` are ignored by ops of lower arity.
-    #[inline]
+    // Always: inlined into every interpreter's loop, those of `super::wide` compiled for
+    // wider vector units included.
+    #[inline(always)]
     pub fn apply<T: DualNum<Primitive = f64>>(self, a: T, b: T, c: T) -> T {
         use Op::*;
         let truth = |t: bool| if t { T::one() } else { T::zero() };
@@ -257,7 +259,8 @@ impl Op {
     /// value is `out`. The common smooth ops reuse `out` (e.g. `d exp(a)/da = out`); all
     /// others come from evaluating [`Op::apply`] on `Dual<T>`, so there is one definition
     /// of every function. A test checks the fast paths against the dual-number partials.
-    #[inline]
+    // Always: as `apply`.
+    #[inline(always)]
     pub fn partials<T: Real>(self, a: T, b: T, c: T, out: T) -> [T; 3] {
         let zero = T::zero();
         let one = T::one();

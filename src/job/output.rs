@@ -242,12 +242,12 @@ impl TrajectoryWriter {
 impl StepSink for TrajectoryWriter {
     fn step(&mut self, log: &StepLog) -> Result<(), String> {
         self.write_row(log).map_err(|e| e.to_string())?;
-        if (log.step + 1) % self.steps_per_day == 0 {
+        if (log.step + 1).is_multiple_of(self.steps_per_day) {
             self.out.flush().map_err(|e| e.to_string())?;
         }
         self.bar.set_position(log.step as u64 + 1);
-        if log.step % PROGRESS_MESSAGE_EVERY == 0
-            || log.step % self.steps_per_day == 0
+        if log.step.is_multiple_of(PROGRESS_MESSAGE_EVERY)
+            || log.step.is_multiple_of(self.steps_per_day)
             || self.logs.is_empty()
         {
             self.bar.set_message(format!(

@@ -265,7 +265,7 @@ fn fit_and_write(
         &upper,
         &config,
         &mut |e: &EpochLoss| {
-            if verbose && fit_bar.is_hidden() && e.epoch % 10 == 0 {
+            if verbose && fit_bar.is_hidden() && e.epoch.is_multiple_of(10) {
                 say!(
                     verbose,
                     "epoch {:>4}: train {:.3e}, validation {:.3e} ({:.0} s)",

@@ -1016,7 +1016,7 @@ fn block_structure(
 ) -> (usize, Vec<Vec<bool>>) {
     let blocks = n_w / sub_block.max(1);
     let mut coupled = vec![vec![false; blocks]; blocks];
-    let mut lower = sub_block > 0 && n_w % sub_block == 0;
+    let mut lower = sub_block > 0 && n_w.is_multiple_of(sub_block);
     if lower {
         for (row, cols) in g_rows.iter().enumerate() {
             for &c in cols.iter().filter(|&&c| c >= n_wrt) {

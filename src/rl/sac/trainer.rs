@@ -322,11 +322,12 @@ impl Trainer {
             }
         }
         let mean = |s: f64| if updates > 0 { s / updates as f64 } else { 0.0 };
-        let eval_reward = if self.config.eval_every > 0 && episode % self.config.eval_every == 0 {
-            Some(self.evaluate()?)
-        } else {
-            None
-        };
+        let eval_reward =
+            if self.config.eval_every > 0 && episode.is_multiple_of(self.config.eval_every) {
+                Some(self.evaluate()?)
+            } else {
+                None
+            };
         let record = EpisodeRecord {
             episode,
             total_steps: self.total_steps,

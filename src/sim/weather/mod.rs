@@ -364,7 +364,7 @@ impl Weather {
         if !(period_s.is_finite() && period_s > 0.0) {
             return bad(format!("period {period_s} s must be positive"));
         }
-        if width == 0 && !data.is_empty() || width > 0 && data.len() % width != 0 {
+        if width == 0 && !data.is_empty() || width > 0 && !data.len().is_multiple_of(width) {
             return bad(format!("{} values do not fill rows of {width}", data.len()));
         }
         if let Some(i) = data.iter().position(|v| !v.is_finite()) {
