@@ -297,12 +297,12 @@ impl Derivatives {
 }
 
 /// Runs the tape on [`Lanes`] numbers whose inputs are in place in `ws`, without the
-/// lanes that are known to be zero: a passive instruction (`active`, from
-/// [`active_args`]) is evaluated on floats, and a product, quotient, sum or difference
-/// with one passive argument scales or copies the active one's lanes instead of forming
-/// the dual product or sum with zero lanes. The same numbers as [`Tape::run`], up to the
-/// sign of a zero lane; passive slots keep the zero lanes they had (every workspace starts
-/// with them, and only passive values are ever written there).
+/// lanes that are known to be zero: a passive sum, difference, product or quotient
+/// (`active`, from [`active_args`]) is evaluated on floats, and one with a single passive
+/// argument scales or copies the active one's lanes instead of forming the dual product
+/// or sum with zero lanes. The same numbers as [`Tape::run`], up to the sign of a zero
+/// lane; the passive slots written on floats keep the zero lanes they had (every workspace
+/// starts with them, and only such values are ever written there).
 // Inlined into the functions of `wide` compiled for wider vector units.
 #[inline(always)]
 pub(crate) fn forward_sweep(tape: &Tape, active: &[ActiveArgs], ws: &mut Workspace<Lane>) {
@@ -317,7 +317,13 @@ pub(crate) fn forward_sweep(tape: &Tape, active: &[ActiveArgs], ws: &mut Workspa
         // (`Tape::checked`), which is at most `s.len()` (asserted above).
         let (da, db, dc) = unsafe { (s.get_unchecked(a), s.get_unchecked(b), s.get_unchecked(c)) };
         let value = match (ins.op, args) {
-            (op, 0) => Lane::from(op.apply(da.re, db.re, dc.re)),
+            // A passive value as the dual arithmetic rounds it (`a · b⁻¹` for a quotient):
+            // the other ops through their dual form below, since num-dual rounds some of
+            // them otherwise than floats do (`x^n` as `x^(n−3)·x·x·x`).
+            (Op::Add, 0) => Lane::from(da.re + db.re),
+            (Op::Sub, 0) => Lane::from(da.re - db.re),
+            (Op::Mul, 0) => Lane::from(da.re * db.re),
+            (Op::Div, 0) => Lane::from(da.re * db.re.recip()),
             (Op::Mul, FIRST_ONLY) => Lane::new(da.re * db.re, da.eps * db.re),
             (Op::Mul, SECOND_ONLY) => Lane::new(da.re * db.re, db.eps * da.re),
             (Op::Add, FIRST_ONLY) => Lane::new(da.re + db.re, da.eps),
