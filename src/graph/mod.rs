@@ -53,6 +53,7 @@ mod derivative;
 mod lanes;
 mod op;
 mod sparsity;
+mod sweep;
 mod tape;
 mod wide;
 
