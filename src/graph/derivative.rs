@@ -11,10 +11,9 @@
 //!   `n × n` second-order dual is ever formed.
 //!
 //! Both sweeps ([`super::sweep`]) skip what the inputs not chosen cannot change
-//! ([`super::activity`]): the
-//! forward sweep the zero lanes of passive values, the reverse sweep the adjoints of
-//! passive slots and the zero lanes of a passive factor's partial. Both run on the widest
-//! vector unit the processor has ([`super::wide`]).
+//! ([`super::activity`]): the forward sweep the zero lanes of passive values, the reverse
+//! sweep the adjoints of passive slots and the zero lanes of a passive factor's partial.
+//! Both run on the widest vector unit the processor has ([`super::wide`]).
 //!
 //! * The same along chosen directions `V` ([`Derivatives::hessian_along`]): `∇²(Σ wᵢ outᵢ) V`
 //!   in one forward-over-reverse pass per [`LANES`] directions, for a step whose

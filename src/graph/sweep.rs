@@ -1,8 +1,8 @@
 //! The two sweeps every derivative of [`super::derivative`] is made of, on the tape's
 //! instructions: forward on [`Lanes`] numbers, skipping lanes known to be zero, and
-//! reverse (adjoint), accumulating `∂(Σ wᵢ outᵢ)/∂slot` over any [`Real`]. Both are inlined
-//! wherever they are called, so that [`super::wide`] can compile them for wider vector
-//! units.
+//! reverse (adjoint), accumulating `∂(Σ wᵢ outᵢ)/∂slot` over any [`Real`]. Both are
+//! inlined wherever they are called, so that [`super::wide`] can compile them for wider
+//! vector units.
 
 use super::activity::{is_active, ActiveArgs, FIRST_ONLY, SECOND_ONLY};
 use super::lanes::Lanes;
@@ -12,11 +12,12 @@ type Lane = Lanes<f64>;
 
 /// Runs the tape on [`Lanes`] numbers whose inputs are in place in `ws`, without the
 /// lanes that are known to be zero: a passive sum, difference, product or quotient
-/// (`active`, from [`active_args`](super::activity::active_args)) is evaluated on floats, and one with a single passive
-/// argument scales or copies the active one's lanes instead of forming the dual product
-/// or sum with zero lanes. The same numbers as [`Tape::run`], up to the sign of a zero
-/// lane; the passive slots written on floats keep the zero lanes they had (every workspace
-/// starts with them, and only such values are ever written there).
+/// (`active`, from [`active_args`](super::activity::active_args)) is evaluated on
+/// floats, and one with a single passive argument scales or copies the active one's lanes
+/// instead of forming the dual product or sum with zero lanes. The same numbers as
+/// [`Tape::run`], up to the sign of a zero lane; the passive slots written on floats keep
+/// the zero lanes they had (every workspace starts with them, and only such values are
+/// ever written there).
 // Inlined into the functions of `wide` compiled for wider vector units.
 #[inline(always)]
 pub(crate) fn forward_sweep(tape: &Tape, active: &[ActiveArgs], ws: &mut Workspace<Lane>) {
@@ -62,14 +63,16 @@ pub(crate) fn forward_sweep(tape: &Tape, active: &[ActiveArgs], ws: &mut Workspa
 ///
 /// Only slots that reach an output of non-zero weight through the branches taken are
 /// visited (`live`, one flag per slot): the untaken branch of an `if`, `min` or `max`
-/// ([`Op::passed_on`]) and everything only it uses get no adjoint at all. Multiplying their zero adjoint by their
-/// partials would not be zero where the branch is not defined (`sqrt(-1)`: 0 · NaN = NaN),
-/// and `if(x > 0, x, sqrt(-x - 1))` would poison every derivative with the branch it does
-/// not take. The forward pass needs no such care: `Select` passes on the taken dual whole.
+/// ([`Op::passed_on`]) and everything only it uses get no adjoint at all. Multiplying
+/// their zero adjoint by their partials would not be zero where the branch is not defined
+/// (`sqrt(-1)`: 0 · NaN = NaN), and `if(x > 0, x, sqrt(-x - 1))` would poison every
+/// derivative with the branch it does not take. The forward pass needs no such care:
+/// `Select` passes on the taken dual whole.
 ///
-/// Passive slots (`active`, from [`active_args`](super::activity::active_args)) get no adjoint either: nothing chosen
-/// depends on them. A product or quotient with a passive argument passes the adjoint on
-/// scaled by a float, which is the dual product with zero lanes, without them.
+/// Passive slots (`active`, from [`active_args`](super::activity::active_args)) get no
+/// adjoint either: nothing chosen depends on them. A product or quotient with a passive
+/// argument passes the adjoint on scaled by a float, which is the dual product with zero
+/// lanes, without them.
 // Inlined into the functions of `wide` compiled for wider vector units.
 #[inline(always)]
 pub(crate) fn reverse_sweep<T: Real>(
