@@ -162,16 +162,6 @@ impl Derivatives {
         );
     }
 
-    /// The adjoint of input `i` the last reverse sweep left: zero where nothing weighted
-    /// depends on it.
-    fn adjoint_of(&self, i: usize) -> Lane {
-        if self.live[i] {
-            self.adjoint[i]
-        } else {
-            Lane::from(0.0)
-        }
-    }
-
     /// Values and Jacobian at `x`.
     pub fn jacobian(&mut self, tape: &Tape, x: &[f64]) -> &Evaluation {
         if self.grouped.is_some() {
@@ -268,10 +258,10 @@ impl Derivatives {
             }
             self.reverse(tape, weights);
             for (r, &i) in self.wrt.iter().enumerate() {
-                let a = self.adjoint_of(i);
+                let a = &self.adjoint[i];
                 gradient[r] = a.re;
                 for (l, col) in cols.clone().enumerate() {
-                    product[col * n + r] = lane(&a, l);
+                    product[col * n + r] = lane(a, l);
                 }
             }
         }
@@ -286,10 +276,10 @@ impl Derivatives {
             let cols = self.forward(tape, x, chunk);
             self.reverse(tape, weights);
             for (k, &i) in self.wrt.iter().enumerate() {
-                let a = self.adjoint_of(i);
+                let a = &self.adjoint[i];
                 self.result.gradient[k] = a.re;
                 for (l, col) in cols.clone().enumerate() {
-                    self.result.hessian[k * n + col] = lane(&a, l);
+                    self.result.hessian[k * n + col] = lane(a, l);
                 }
             }
         }
@@ -320,9 +310,8 @@ pub fn gradient_f64(tape: &Tape, x: &[f64], weights: &[f64]) -> Vec<f64> {
     let everything: Vec<usize> = (0..tape.n_inputs).collect();
     let active = active_args(tape, &everything);
     reverse_sweep(tape, &active, &ws, weights, &mut adjoint, &mut live);
-    (0..tape.n_inputs)
-        .map(|i| if live[i] { adjoint[i] } else { 0.0 })
-        .collect()
+    adjoint.truncate(tape.n_inputs);
+    adjoint
 }
 
 #[cfg(test)]

@@ -58,8 +58,8 @@ pub(crate) fn forward_sweep(tape: &Tape, active: &[ActiveArgs], ws: &mut Workspa
 }
 
 /// Accumulates adjoints `∂(Σ wᵢ outᵢ)/∂slot` over `T`, from the values left in `ws` by a
-/// forward run. `adjoint[s]` holds slot `s`'s where `live[s]`; elsewhere it is left as it
-/// was and stands for zero.
+/// forward run. An input's adjoint is its derivative, zero where nothing weighted depends
+/// on it; any other slot's holds its own where `live[s]` and is left as it was elsewhere.
 ///
 /// Only slots that reach an output of non-zero weight through the branches taken are
 /// visited (`live`, one flag per slot): the untaken branch of an `if`, `min` or `max`
@@ -172,6 +172,16 @@ pub(crate) fn reverse_sweep<T: Real>(
         }
         if arity > 2 {
             pass(2, g * p2);
+        }
+    }
+    // No instruction reads an input's adjoint, so the unset ones are zeroed here, once,
+    // rather than checked by every caller.
+    for (a, &is_live) in adjoint[..tape.n_inputs]
+        .iter_mut()
+        .zip(&live[..tape.n_inputs])
+    {
+        if !is_live {
+            *a = T::zero();
         }
     }
 }
