@@ -145,7 +145,7 @@ impl Trainer {
             total_steps: 0,
             curve: Vec::new(),
             best: None,
-            device: Device::flex().autodiff(),
+            device: super::training_device(),
             batch: Batch::default(),
             config,
         })
@@ -190,7 +190,7 @@ impl Trainer {
             total_steps,
             curve,
             best,
-            device: Device::flex().autodiff(),
+            device: super::training_device(),
             batch: Batch::default(),
         })
     }
