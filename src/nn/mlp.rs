@@ -9,6 +9,7 @@
 //! ReLU's derivative at exactly zero is taken as zero (the left derivative), as the
 //! expression graph's `max` does.
 
+use super::products::three_products;
 use crate::graph::{Graph, NodeId, Op, Real};
 use crate::nn::NnError;
 use serde::{Deserialize, Serialize};
@@ -286,24 +287,26 @@ impl Mlp {
     /// three plain vectors per layer: value, first and second derivative. The figures of
     /// [`Mlp::forward`] over `Dual2` to rounding, at a fraction of its cost: `tanh` once
     /// per unit with its derivatives written out (`Dual2`'s is `sinh / cosh` of dual
-    /// numbers), and dot products over contiguous `f64` rows in four running sums.
+    /// numbers), and each row of weights read once for its three products
+    /// ([`products`](super::products)).
     pub fn forward_second_along(&self, input: &[f64], tangent: &[f64]) -> (f64, f64, f64) {
         let n = self.inputs();
         let mut value = input[..n].to_vec();
         let mut first = tangent[..n].to_vec();
         let mut second = vec![0.0; n];
+        let mut products = Vec::new();
         let last = self.layers.len() - 1;
         for (l, layer) in self.layers.iter().enumerate() {
             let activation = if l == last { self.output } else { self.hidden };
-            let mut next = (
+            products.resize(layer.outputs, [0.0; 3]);
+            three_products(&layer.weight, [&value, &first, &second], &mut products);
+            (value, first, second) = (
                 Vec::with_capacity(layer.outputs),
                 Vec::with_capacity(layer.outputs),
                 Vec::with_capacity(layer.outputs),
             );
-            for o in 0..layer.outputs {
-                let row = &layer.weight[o * layer.inputs..(o + 1) * layer.inputs];
-                let z = layer.bias[o] + dot(row, &value);
-                let (z1, z2) = (dot(row, &first), dot(row, &second));
+            for (&[z, z1, z2], &bias) in products.iter().zip(&layer.bias) {
+                let z = bias + z;
                 let (a, a1, a2) = match activation {
                     Activation::Identity => (z, z1, z2),
                     Activation::Relu if z > 0.0 => (z, z1, z2),
@@ -314,11 +317,10 @@ impl Mlp {
                         (t, slope * z1, slope * (z2 - 2.0 * t * z1 * z1))
                     }
                 };
-                next.0.push(a);
-                next.1.push(a1);
-                next.2.push(a2);
+                value.push(a);
+                first.push(a1);
+                second.push(a2);
             }
-            (value, first, second) = next;
         }
         (value[0], first[0], second[0])
     }
@@ -425,20 +427,6 @@ impl Mlp {
             source,
         })
     }
-}
-
-/// `Σ a_i b_i` in four running sums, which the compiler can keep in vector registers.
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    let mut sums = [0.0; 4];
-    let (a4, a_rest) = a.split_at(a.len() / 4 * 4);
-    let (b4, b_rest) = b.split_at(a4.len());
-    for (x, y) in a4.chunks_exact(4).zip(b4.chunks_exact(4)) {
-        for k in 0..4 {
-            sums[k] += x[k] * y[k];
-        }
-    }
-    let tail: f64 = a_rest.iter().zip(b_rest).map(|(x, y)| x * y).sum();
-    (sums[0] + sums[1]) + (sums[2] + sums[3]) + tail
 }
 
 #[cfg(test)]

@@ -6,6 +6,8 @@
 //!
 //! * [`mlp`]: layers, activations, evaluation, graph expansion, files;
 //! * [`scaled`]: a network between an input box and an affine output map (value functions);
+//! * `products`: a layer's weights times three vectors at once, the second-order pass's
+//!   kernel;
 //! * [`error`]: the error type [`NnError`].
 //!
 //! Architecture invariant: `nn` knows no training framework. Networks trained with burn
@@ -13,6 +15,7 @@
 
 pub mod error;
 pub mod mlp;
+mod products;
 pub mod scaled;
 
 pub use error::NnError;
