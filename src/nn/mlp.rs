@@ -288,7 +288,7 @@ impl Mlp {
     /// [`Mlp::forward`] over `Dual2` to rounding, at a fraction of its cost: `tanh` once
     /// per unit with its derivatives written out (`Dual2`'s is `sinh / cosh` of dual
     /// numbers), and each row of weights read once for its three products
-    /// ([`products`](super::products)).
+    /// (`nn::products`).
     pub fn forward_second_along(&self, input: &[f64], tangent: &[f64]) -> (f64, f64, f64) {
         let n = self.inputs();
         let mut value = input[..n].to_vec();
