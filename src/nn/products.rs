@@ -10,7 +10,7 @@
 //! multiply-adds, so the results are [`dot`]'s to the bit on every processor.
 
 /// `Σ aᵢ bᵢ` in four running sums, which the compiler can keep in one vector register.
-pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
+fn dot(a: &[f64], b: &[f64]) -> f64 {
     let mut sums = [0.0; 4];
     let (a4, a_rest) = a.split_at(a.len() / 4 * 4);
     let (b4, b_rest) = b.split_at(a4.len());
@@ -29,6 +29,12 @@ fn finish(sums: [f64; 4], a_rest: &[f64], b_rest: &[f64]) -> f64 {
     (sums[0] + sums[1]) + (sums[2] + sums[3]) + tail
 }
 
+/// One row's three products, each by [`dot`]: the rows the wide code leaves over, and every
+/// row where there is no wide unit.
+fn row_products(row: &[f64], vectors: [&[f64]; 3]) -> [f64; 3] {
+    vectors.map(|vector| dot(row, vector))
+}
+
 /// For every row `w` of `weight` (row-major, `vectors[k].len()` columns), the three
 /// products `w · vectors[k]`, written to `out[row]`.
 pub(super) fn three_products(weight: &[f64], vectors: [&[f64]; 3], out: &mut [[f64; 3]]) {
@@ -43,17 +49,15 @@ pub(super) fn three_products(weight: &[f64], vectors: [&[f64]; 3], out: &mut [[f
         return unsafe { avx2::three_products(weight, vectors, out) };
     }
     for (row, products) in weight.chunks_exact(width).zip(out) {
-        for (v, vector) in vectors.iter().enumerate() {
-            products[v] = dot(row, vector);
-        }
+        *products = row_products(row, vectors);
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
-    //! The products on AVX2: lane `k` of a register holds running sum `k` of [`dot`], added
-    //! to by separate multiplies and adds, as [`dot`] does.
-    use super::{dot, finish};
+    //! The products on AVX2: lane `k` of a register holds running sum `k` of
+    //! [`dot`](super::dot), added to by separate multiplies and adds, as it does.
+    use super::{finish, row_products};
     use std::arch::x86_64::*;
 
     /// Rows read together: six running registers, and the three vectors' chunks loaded
@@ -90,13 +94,11 @@ mod avx2 {
                 }
             }
         }
-        for (row, row_products) in weight_left
+        for (row, products) in weight_left
             .chunks_exact(width)
             .zip(out_groups.into_remainder())
         {
-            for (v, vector) in vectors.iter().enumerate() {
-                row_products[v] = dot(row, vector);
-            }
+            *products = row_products(row, vectors);
         }
     }
 
