@@ -270,7 +270,8 @@ fn mpc_runs_on_builtin_weather_and_reports_solver_statistics() {
 
 /// `--warm-start primal-dual` restarts each step from the shifted plan and its
 /// multipliers instead, `primal-multipliers` from the shifted plan and its constraint
-/// multipliers: each run says so in its summary, solves every step, and lands on the same
+/// multipliers, `primal-dual-capped` the primal-dual way for a few iterations and then
+/// from the shifted plan: each run says so in its summary, solves every step, and lands on the same
 /// season as the default restart.
 #[test]
 fn mpc_takes_the_other_restarts_on_request() {
@@ -301,7 +302,7 @@ fn mpc_takes_the_other_restarts_on_request() {
         reward.expect("cumulative reward")
     };
     let primal = reward_with(None);
-    for restart in ["primal-dual", "primal-multipliers"] {
+    for restart in ["primal-dual", "primal-multipliers", "primal-dual-capped"] {
         let other = reward_with(Some(restart));
         assert!(
             (primal - other).abs() <= 1e-4,

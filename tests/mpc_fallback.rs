@@ -2,7 +2,8 @@
 //! forecast padding (built-in model, constant weather: no ../shared needed).
 
 use ghm::control::mpc::LAST_RESORT_COLD_ITERATIONS;
-use ghm::control::{ControlError, Controller, Fallback, Guidance, Mpc, Observation};
+use ghm::control::warm_start::PRIMAL_DUAL_TRIAL_ITERATIONS;
+use ghm::control::{ControlError, Controller, Fallback, Guidance, Mpc, Observation, WarmStart};
 use ghm::model::Plant;
 use ghm::nlp::{Nlp, Ocp};
 use ghm::solve::{Solution, SolveStatus, Solver, Sqp, Start};
@@ -211,6 +212,21 @@ fn warm_start_failure_falls_back_to_a_cold_start() {
         log[2].0, None,
         "step 2 warm-starts again from step 1's solution"
     );
+}
+
+#[test]
+fn a_capped_primal_dual_restart_that_fails_restarts_from_the_shifted_plan_not_cold() {
+    // Step 0: cold solve ok. Step 1: the primal-dual attempt, capped, fails; the restart
+    // from the shifted plan alone (uncapped) succeeds within the same step: no fallback.
+    let failed = Some(SolveStatus::MaxIterations);
+    let (plant, mut mpc, caps) = setup_recording(vec![None, failed, None, None]);
+    mpc.warm_start = WarmStart::PrimalDualCapped;
+    let log = run(&plant, &mut mpc, 3);
+    assert_eq!(log[1].0, None, "{log:?}");
+    assert_eq!(log[1].2, "optimal");
+    let trial = Some(PRIMAL_DUAL_TRIAL_ITERATIONS);
+    // Step 0 cold, step 1 the capped attempt then the shifted plan, step 2 capped again.
+    assert_eq!(caps.borrow()[..], [None, trial, None, trial]);
 }
 
 #[test]

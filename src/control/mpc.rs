@@ -47,6 +47,7 @@
 //! input.
 
 use super::roll_out::RollOut;
+use super::warm_start::PRIMAL_DUAL_TRIAL_ITERATIONS;
 use super::Rules;
 use super::{
     ControlError, Controller, Decision, Fallback, Observation, Plan, StepRecord, WarmStart,
@@ -240,7 +241,10 @@ impl Mpc {
         }
         self.ocp
             .shift_multipliers(&last.multipliers, &mut self.start_lambda);
-        if self.warm_start != WarmStart::PrimalDual {
+        if !matches!(
+            self.warm_start,
+            WarmStart::PrimalDual | WarmStart::PrimalDualCapped
+        ) {
             // A guided restart (RL-guided MPC) also carries the constraint multipliers:
             // see `IpmOptions::shifted_slack_push` for what that buys and why plain MPC
             // does so only when asked to (`WarmStart::PrimalMultipliers`).
@@ -252,6 +256,9 @@ impl Mpc {
         }
         self.ocp
             .shift_bound_multipliers(&last.bound_multipliers, &mut self.start_nu);
+        if self.warm_start == WarmStart::PrimalDualCapped {
+            return Some(self.solve_primal_dual_then_shifted(primal_ready));
+        }
         // From a good warm start SQP needs two or three iterations; a warm solve that
         // needs many more is usually stuck, and a cold start is the better use of time.
         Some(solve_capped(
@@ -275,13 +282,35 @@ impl Mpc {
         if closer.status.is_success() {
             return closer;
         }
-        let mut bare = self
+        let bare = self
             .solver
             .solve(&mut self.ocp, Start::shifted(&self.start_x));
-        bare.stats.iterations += closer.stats.iterations;
-        bare.stats.inertia_corrections += closer.stats.inertia_corrections;
-        bare.stats.time_s += closer.stats.time_s;
-        bare
+        after(&closer, bare)
+    }
+
+    /// The [`WarmStart::PrimalDualCapped`] restart: from the shifted point and all its
+    /// multipliers for at most [`PRIMAL_DUAL_TRIAL_ITERATIONS`] iterations, else from the
+    /// shifted point with a fresh barrier as [`WarmStart::Primal`] restarts (with the
+    /// constraint multipliers where `guided`). The returned solution counts the iterations
+    /// and corrections of both attempts.
+    fn solve_primal_dual_then_shifted(&mut self, guided: bool) -> Solution {
+        let trial = solve_capped(
+            self.solver.as_mut(),
+            Some(PRIMAL_DUAL_TRIAL_ITERATIONS),
+            &mut self.ocp,
+            Start::warm(&self.start_x, &self.start_lambda, &self.start_nu),
+        );
+        if trial.status.is_success() {
+            return trial;
+        }
+        let start = Start::shifted(&self.start_x);
+        let start = if guided {
+            start.with_multipliers(&self.start_lambda)
+        } else {
+            start
+        };
+        let shifted = self.solver.solve(&mut self.ocp, start);
+        after(&trial, shifted)
     }
 
     /// The guided solve: from the guidance's starting point, with the shifted multipliers
@@ -577,6 +606,15 @@ fn halved_horizons(horizon: usize) -> Vec<usize> {
     std::iter::successors(Some(horizon / 2), |h| Some(h / 2))
         .take_while(|&h| h >= 1)
         .collect()
+}
+
+/// `second`, counting the iterations, corrections and time of the `first` attempt it
+/// followed at the same step.
+fn after(first: &Solution, mut second: Solution) -> Solution {
+    second.stats.iterations += first.stats.iterations;
+    second.stats.inertia_corrections += first.stats.inertia_corrections;
+    second.stats.time_s += first.stats.time_s;
+    second
 }
 
 /// A solve capped at `limit` iterations; the cap is lifted afterwards.
