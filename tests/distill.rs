@@ -3,7 +3,10 @@
 
 use ghm::agent::PolicyFile;
 use ghm::job::distill::{run_distill_job, DistillSpec, StartRows};
-use ghm::job::{ControllerSpec, JobOptions, MpcSpec, OptimumSpec, WeatherSpec};
+use ghm::job::{
+    run_season_job, ControllerSpec, CostForm, GuideChoice, JobOptions, MpcSpec, OptimumSpec,
+    PlantSpec, RlmpcSpec, RunSpec, WeatherSpec,
+};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
@@ -175,4 +178,74 @@ fn a_teacher_that_plans_a_whole_season_or_no_iteration_is_refused_by_name() {
     assert!(e.to_string().contains("`teacher`"), "{e}");
     let e = run_distill_job(&spec(0), &dir, &QUIET, false, 1).unwrap_err();
     assert!(e.to_string().contains("`iterations`"), "{e}");
+}
+
+#[test]
+fn a_student_that_sees_the_forecast_is_a_version_2_policy_that_runs_as_it_was_taught() {
+    let out = temp_dir("forecast");
+    let ahead = DistillSpec {
+        forecast_rows: 3,
+        ..spec(1)
+    };
+    run_distill_job(&ahead, &out, &QUIET, false, 2).unwrap();
+    let path = out.join("policy.json");
+    let policy = PolicyFile::load(&path).unwrap();
+    assert_eq!(policy.observation.version(), 2);
+    assert_eq!(policy.observation.forecast_rows(), 3);
+    let model = ghm::lang::load(Path::new("models/lettuce.ghm")).unwrap();
+    policy.check_fits(&model, &path).unwrap();
+    // Outputs, previous inputs, step, then four rows of the four weather columns.
+    let nd = model.disturbances.len();
+    assert_eq!(policy.observation_names.len(), 4 + 3 + 1 + 4 * nd);
+    let last = policy.observation_names.last().unwrap();
+    assert!(last.ends_with("[k+3]"), "{last}");
+    let labels = std::fs::read_to_string(out.join("labels/iteration-00.csv")).unwrap();
+    assert!(labels.lines().next().unwrap().contains(last.as_str()));
+
+    // The same student as a controller of a season (the job layer: what `ghm policy`,
+    // serve, compile and Python build) earns what it earned in its evaluation on the
+    // training environment: it observes the same forecast rows.
+    let run = |controller: ControllerSpec| RunSpec {
+        model: "models/lettuce.ghm".into(),
+        weather: spec(1).weather,
+        plant: PlantSpec::NOMINAL,
+        controller,
+    };
+    let season =
+        |controller, name: &str| run_season_job(&run(controller), &out.join(name), &QUIET).unwrap();
+    let student = || ControllerSpec::Policy {
+        agent: Some(out.clone()),
+    };
+    let alone = season(student(), "alone");
+    let evaluated = policy.eval_reward.unwrap();
+    let reward = alone.metrics.cumulative_reward;
+    assert!(
+        (reward - evaluated).abs() <= 1e-9 * evaluated.abs().max(1.0),
+        "season {reward}, evaluation {evaluated}"
+    );
+    // A controller driven step by step (serve, compile, Python) asks for the rows it
+    // reads, the current one and three after it.
+    let standalone = ghm::job::build_controller(&run(student())).unwrap();
+    assert_eq!(standalone.forecast_rows, 4);
+    // RL-guided MPC rolls the guide out over its horizon with the rows past it.
+    let guided = season(
+        ControllerSpec::Rlmpc(RlmpcSpec {
+            guide: GuideChoice::Distilled,
+            agent: Some(out.clone()),
+            terminal_cost: CostForm::None,
+            ..RlmpcSpec::default()
+        }),
+        "rlmpc",
+    );
+    assert_eq!(guided.metrics.solve.failed_solves, 0);
+    assert!(guided.metrics.cumulative_reward.is_finite());
+
+    // A version this ghm does not know is refused by name, not misread.
+    let text = std::fs::read_to_string(&path).unwrap();
+    let future = text.replace("\"version\":2", "\"version\":3");
+    assert_ne!(future, text);
+    let unknown = out.join("future.json");
+    std::fs::write(&unknown, future).unwrap();
+    let e = PolicyFile::load(&unknown).unwrap_err().to_string();
+    assert!(e.contains("observation version 3"), "{e}");
 }

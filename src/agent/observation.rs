@@ -2,9 +2,16 @@
 //! training environment ([`rl::Env`](crate::rl::Env)) and the policy controller
 //! ([`control::Policy`](crate::control::Policy)):
 //!
-//! * **observation** `s(k) = [y(x(k)), u(k−1), k, d(k)]`: the outputs, the previous input,
-//!   the step index as `f64` and the current weather ([`observation_after_outputs`] writes
-//!   all but the outputs; [`observation_names`] names the entries);
+//! * **observation**, in one of two versions ([`ObservationLayout`], recorded in each
+//!   policy file):
+//!   - version 1 `s(k) = [y(x(k)), u(k−1), k, d(k)]`: the outputs, the previous input, the
+//!     step index as `f64` and the current weather;
+//!   - version 2 adds `F` rows of the perfect forecast, `[…, d(k), d(k+1), …, d(k+F)]`,
+//!     for a policy that imitates a controller planning ahead. A row past the end of the
+//!     weather repeats the last one there is, as MPC pads its forecast.
+//!
+//!   [`ObservationLayout::write_after_outputs`] writes all but the outputs;
+//!   [`ObservationLayout::names`] names the entries;
 //! * **action** `a ∈ [−1, 1]^nu` maps to `u(k) = clip(u(k−1) + clip(a, −1, 1) ⊙ δu, lower,
 //!   upper)` ([`input_from_action`]), `δu` being each input's rate limit or its range
 //!   ([`action_scale`]), so bounds and rate limits hold by construction.
@@ -12,16 +19,164 @@
 use crate::agent::AgentError;
 use crate::lang::Model;
 use crate::model::Plant;
+use serde::{Deserialize, Serialize};
 
-/// Writes what follows the outputs in an observation `[y, u_prev, k, d]`: the previous
-/// input, the step index and the current weather (`rest` has room for exactly these). The
-/// environment and [`Policy`](crate::control::Policy) share it, so a policy sees in closed loop what
-/// it saw in training.
-pub fn observation_after_outputs(rest: &mut [f64], previous_input: &[f64], step: usize, d: &[f64]) {
-    let nu = previous_input.len();
-    rest[..nu].copy_from_slice(previous_input);
-    rest[nu] = step as f64;
-    rest[nu + 1..].copy_from_slice(d);
+/// The observation versions this ghm reads and writes: a policy file that records another
+/// is refused by name.
+pub const OBSERVATION_VERSIONS: [u32; 2] = [1, 2];
+
+/// Which observation an agent sees: version 1 (the current weather only) or version 2 (the
+/// current weather and `forecast_rows` rows of forecast after it). See the [module
+/// documentation](self).
+///
+/// In a policy file it is the field `"observation": {"version": 2, "forecast_rows": 12}`;
+/// a file without the field is version 1 (every file written before version 2 existed),
+/// and version 1 is written without it, so those files read and write as before.
+///
+/// ```
+/// use ghm::agent::observation::ObservationLayout;
+///
+/// let text = "sample 60 [s]\nstate level = 1\ninput inflow in [0, 1] rate 0.1\n\
+///             disturbance rain\nder level = inflow + rain - level\noutput h = level\n";
+/// let model = ghm::lang::load_str("tank.ghm", text).unwrap();
+/// let ahead = ObservationLayout::with_forecast(2);
+/// assert_eq!(ahead.version(), 2);
+/// assert_eq!(
+///     ahead.names(&model),
+///     ["h", "prev_inflow", "step", "rain", "rain[k+1]", "rain[k+2]"]
+/// );
+/// // One row of forecast given: the rows after it repeat it.
+/// let mut rest = [0.0; 5];
+/// ahead.write_after_outputs(&mut rest, &[0.5], 7, &[3.0, 4.0], 1);
+/// assert_eq!(rest, [0.5, 7.0, 3.0, 4.0, 4.0]);
+/// // A version this ghm does not know is refused by name.
+/// let err = serde_json::from_str::<ObservationLayout>(r#"{"version": 3}"#).unwrap_err();
+/// assert!(err.to_string().contains("observation version 3"));
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(try_from = "LayoutData", into = "LayoutData")]
+pub struct ObservationLayout {
+    forecast_rows: usize,
+}
+
+/// The serialised form of an [`ObservationLayout`], checked on the way in.
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LayoutData {
+    version: u32,
+    #[serde(default)]
+    forecast_rows: usize,
+}
+
+impl TryFrom<LayoutData> for ObservationLayout {
+    type Error = String;
+    fn try_from(d: LayoutData) -> Result<ObservationLayout, String> {
+        match (d.version, d.forecast_rows) {
+            (1, 0) => Ok(ObservationLayout::CURRENT_WEATHER),
+            (1, rows) => Err(format!(
+                "observation version 1 has no forecast, but \"forecast_rows\" is {rows}"
+            )),
+            (2, 0) => Err("observation version 2 needs \"forecast_rows\" ≥ 1".into()),
+            (2, rows) => Ok(ObservationLayout::with_forecast(rows)),
+            (v, _) => Err(format!(
+                "observation version {v} is not one this ghm reads ({}); a newer ghm wrote it",
+                OBSERVATION_VERSIONS.map(|v| v.to_string()).join(", ")
+            )),
+        }
+    }
+}
+
+impl From<ObservationLayout> for LayoutData {
+    fn from(layout: ObservationLayout) -> LayoutData {
+        LayoutData {
+            version: layout.version(),
+            forecast_rows: layout.forecast_rows,
+        }
+    }
+}
+
+impl ObservationLayout {
+    /// Version 1: `[y, u_prev, k, d(k)]`.
+    pub const CURRENT_WEATHER: ObservationLayout = ObservationLayout { forecast_rows: 0 };
+
+    /// Version 2 with `rows` rows of forecast after the current weather (version 1 for 0).
+    pub fn with_forecast(rows: usize) -> ObservationLayout {
+        ObservationLayout {
+            forecast_rows: rows,
+        }
+    }
+
+    /// The version: 1 without forecast rows, 2 with.
+    pub fn version(&self) -> u32 {
+        if self.forecast_rows == 0 {
+            1
+        } else {
+            2
+        }
+    }
+
+    /// Rows of forecast after the current weather.
+    pub fn forecast_rows(&self) -> usize {
+        self.forecast_rows
+    }
+
+    /// Whether this is version 1 (what a policy file states by leaving the field out).
+    pub fn is_current_weather(&self) -> bool {
+        self.forecast_rows == 0
+    }
+
+    /// Entries of an observation of `model`: outputs, inputs, the step, and the weather
+    /// rows.
+    pub fn width(&self, model: &Model) -> usize {
+        let nd = model.disturbances.len();
+        model.outputs.len() + model.inputs.len() + 1 + nd * (1 + self.forecast_rows)
+    }
+
+    /// Names of the entries of an observation of `model`: the outputs, `prev_<input>` per
+    /// input, `step`, the disturbances, then `<disturbance>[k+j]` for each forecast row `j`.
+    pub fn names(&self, model: &Model) -> Vec<String> {
+        let weather = |j: usize| {
+            model.disturbances.iter().map(move |d| match j {
+                0 => d.info.name.clone(),
+                j => format!("{}[k+{j}]", d.info.name),
+            })
+        };
+        model
+            .outputs
+            .iter()
+            .map(|o| o.info.name.clone())
+            .chain(model.inputs.iter().map(|u| format!("prev_{}", u.info.name)))
+            .chain(std::iter::once("step".to_string()))
+            .chain((0..=self.forecast_rows).flat_map(weather))
+            .collect()
+    }
+
+    /// Writes what follows the outputs in an observation: the previous input, the step
+    /// index and the weather rows, from `forecast` (`d(k), d(k+1), …`, row-major, rows of
+    /// `nd`; at least one row where `nd > 0`), a row past its end repeating its last one.
+    /// `rest` has room for exactly these. The environment and
+    /// [`Policy`](crate::control::Policy) share it, so a policy sees in closed loop what it
+    /// saw in training.
+    pub fn write_after_outputs(
+        &self,
+        rest: &mut [f64],
+        previous_input: &[f64],
+        step: usize,
+        forecast: &[f64],
+        nd: usize,
+    ) {
+        let nu = previous_input.len();
+        rest[..nu].copy_from_slice(previous_input);
+        rest[nu] = step as f64;
+        if nd == 0 {
+            return;
+        }
+        let available = forecast.len() / nd;
+        for (j, row) in rest[nu + 1..].chunks_exact_mut(nd).enumerate() {
+            let from = j.min(available - 1) * nd;
+            row.copy_from_slice(&forecast[from..from + nd]);
+        }
+    }
 }
 
 /// Each input's action scale `δu`: its rate limit, or its range `upper − lower` when it has
@@ -124,17 +279,4 @@ pub fn action_from_input(previous: &[f64], input: &[f64], scale: &[f64], action:
             0.0
         };
     }
-}
-
-/// Names of the observation entries of an environment over `model`: the outputs,
-/// `prev_<input>` per input, `step`, and the disturbances.
-pub fn observation_names(model: &Model) -> Vec<String> {
-    model
-        .outputs
-        .iter()
-        .map(|o| o.info.name.clone())
-        .chain(model.inputs.iter().map(|u| format!("prev_{}", u.info.name)))
-        .chain(std::iter::once("step".to_string()))
-        .chain(model.disturbances.iter().map(|d| d.info.name.clone()))
-        .collect()
 }

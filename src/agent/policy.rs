@@ -4,7 +4,7 @@
 //! RL-guided MPC load; it needs no training framework to run, and it evaluates over dual
 //! numbers, so an optimiser can differentiate through it.
 
-use crate::agent::observation::observation_names;
+use crate::agent::observation::ObservationLayout;
 use crate::agent::{AgentError, Normalizer};
 use crate::graph::Real;
 use crate::lang::Model;
@@ -24,7 +24,12 @@ use std::path::Path;
 pub struct PolicyFile {
     /// The model it was trained on (the model file's `model` name).
     pub model: String,
-    /// The observation's entries, in order (outputs, previous inputs, step, weather).
+    /// Which observation the policy sees: version 1 (the current weather) or 2 (with
+    /// forecast rows); left out of the file for version 1.
+    #[serde(default, skip_serializing_if = "ObservationLayout::is_current_weather")]
+    pub observation: ObservationLayout,
+    /// The observation's entries, in order (outputs, previous inputs, step, weather, the
+    /// forecast rows of version 2).
     pub observation_names: Vec<String>,
     /// The model's inputs the actions set, in order (empty in files written before ghm
     /// recorded them).
@@ -44,6 +49,8 @@ pub struct PolicyFile {
 #[derive(Deserialize)]
 struct PolicyData {
     model: String,
+    #[serde(default)]
+    observation: ObservationLayout,
     observation_names: Vec<String>,
     #[serde(default)]
     action_names: Vec<String>,
@@ -76,6 +83,7 @@ impl TryFrom<PolicyData> for PolicyFile {
         }
         Ok(PolicyFile {
             model: d.model,
+            observation: d.observation,
             observation_names: d.observation_names,
             action_names: d.action_names,
             normalizer: d.normalizer,
@@ -171,13 +179,15 @@ impl PolicyFile {
             path: path.to_path_buf(),
             reason,
         };
-        let observation = observation_names(model);
+        let observation = self.observation.names(model);
         if self.observation_names != observation {
             return Err(fail(format!(
-                "\"observation_names\" are [{}]; model `{}` observes [{}]",
+                "\"observation_names\" are [{}]; model `{}` observes [{}] in observation \
+                 version {}",
                 self.observation_names.join(", "),
                 model.name,
-                observation.join(", ")
+                observation.join(", "),
+                self.observation.version()
             )));
         }
         let inputs: Vec<&str> = model.inputs.iter().map(|u| u.info.name.as_str()).collect();

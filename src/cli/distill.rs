@@ -39,6 +39,11 @@ pub struct DistillArgs {
     /// students are still evaluated on the season.
     #[arg(long, value_name = "FIRST..LAST", value_parser = str::parse::<StartRows>)]
     pub start_rows: Option<StartRows>,
+    /// Rows of weather forecast the student observes after the current weather (0: the
+    /// current weather only, observation version 1; more: version 2, e.g. 12 for the six
+    /// half-hours a 6 h teacher plans over).
+    #[arg(long, value_name = "N", default_value_t = DistillSpec::default().forecast_rows)]
+    pub forecast_rows: usize,
     /// Roll out on perturbed plants (parameters drawn per roll-out with --uncertainty).
     #[arg(long)]
     pub stochastic: bool,
@@ -80,6 +85,7 @@ pub fn run(args: &DistillArgs) -> Result<(), CliError> {
         roll_outs: args.roll_outs,
         noise: args.noise,
         start_rows: args.start_rows,
+        forecast_rows: args.forecast_rows,
         fit: ImitationConfig {
             epochs: args.epochs,
             ..ImitationConfig::default()

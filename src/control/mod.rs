@@ -242,6 +242,14 @@ pub trait Controller {
     fn plan(&self) -> Option<Plan> {
         None
     }
+    /// Rows of the forecast after the current weather that the controller reads beyond
+    /// any horizon of its own: a policy whose observation has forecast rows
+    /// ([`ObservationLayout`](crate::agent::observation::ObservationLayout)); 0 for the
+    /// rest (the default). A caller that can supply them should: a row missing at the end
+    /// of the weather repeats the last one.
+    fn forecast_rows(&self) -> usize {
+        0
+    }
 }
 
 /// The same input at every step.

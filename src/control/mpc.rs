@@ -80,6 +80,12 @@ pub trait Guidance: Send {
 
     /// The terminal region's state at a solution, for the step record.
     fn region_status(&self, ocp: &Ocp, x: &[f64]) -> Option<String>;
+
+    /// Rows of forecast past the horizon that [`Guidance::prepare`] reads: the guide's own
+    /// ([`Controller::forecast_rows`]), for its roll-out's last steps.
+    fn forecast_rows(&self) -> usize {
+        0
+    }
 }
 
 /// Iteration cap of plain MPC's cold solves where a last resort follows them: the cold
@@ -204,10 +210,12 @@ impl Mpc {
         self.last.as_ref()
     }
 
-    /// The forecast padded to the horizon by repeating its last row.
+    /// The forecast padded to the horizon, and the rows past it the guidance reads, by
+    /// repeating its last row.
     fn pad_forecast(&mut self, forecast: &[f64]) -> Result<(), ControlError> {
         let nd = self.ocp.plant().layout.nd;
-        let needed = self.ocp.horizon() * nd;
+        let beyond = self.guidance.as_ref().map_or(0, |g| g.forecast_rows());
+        let needed = (self.ocp.horizon() + beyond) * nd;
         self.forecast.clear();
         self.forecast
             .extend_from_slice(&forecast[..forecast.len().min(needed)]);

@@ -1,9 +1,10 @@
 //! A trained policy as a controller: at each step it builds the observation the agent was
-//! trained on (outputs, previous input, step index, current weather), standardises it with
+//! trained on (outputs, previous input, step index, current weather, and the forecast rows
+//! of an observation of version 2), standardises it with
 //! the policy's frozen statistics, and maps the action to an input with the environment's
 //! own map, so rate limits and bounds hold by construction.
 
-use crate::agent::observation::{action_scale, input_from_action, observation_after_outputs};
+use crate::agent::observation::{action_scale, input_from_action};
 use crate::agent::PolicyFile;
 use crate::control::{ControlError, Controller, Decision, Observation, StepRecord};
 use crate::model::Plant;
@@ -72,7 +73,7 @@ impl Policy {
     pub fn new(plant: &Arc<Plant>, policy: PolicyFile) -> Result<Policy, ControlError> {
         let model = &plant.model;
         let (nu, nd) = (plant.layout.nu, plant.layout.nd);
-        let width = model.outputs.len() + nu + 1 + nd;
+        let width = policy.observation.width(model);
         if policy.normalizer.width() != width || policy.actor.outputs() != nu {
             return Err(ControlError::Other(format!(
                 "the policy observes {} values and sets {} inputs; model `{}` gives {} and has {}",
@@ -105,6 +106,10 @@ impl Controller for Policy {
         "policy".into()
     }
 
+    fn forecast_rows(&self) -> usize {
+        self.policy.observation.forecast_rows()
+    }
+
     fn decide(&mut self, o: &Observation) -> Result<Decision, ControlError> {
         let started = Instant::now();
         let (ny, nu) = (o.outputs.len(), o.previous_input.len());
@@ -115,11 +120,12 @@ impl Controller for Policy {
         }
         let obs = &mut self.observation;
         obs[..ny].copy_from_slice(o.outputs);
-        observation_after_outputs(
+        self.policy.observation.write_after_outputs(
             &mut obs[ny..],
             o.previous_input,
             o.step,
-            &o.forecast[..self.nd],
+            o.forecast,
+            self.nd,
         );
         let action = self.policy.action(&self.observation[..])?;
         let mut input = vec![0.0; nu];

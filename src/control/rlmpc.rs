@@ -214,6 +214,10 @@ impl Guidance for RlGuidance {
         Ok(())
     }
 
+    fn forecast_rows(&self) -> usize {
+        self.guide.forecast_rows()
+    }
+
     fn guide_input(&mut self, observation: &Observation) -> Option<Vec<f64>> {
         self.roll_out
             .input(

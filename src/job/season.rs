@@ -4,7 +4,7 @@
 
 use crate::control::TerminalCostForm;
 use crate::control::{
-    Controller, Expert, InputTable, Mpc, Policy, RlGuidance, RlMpcOptions, Rules,
+    Controller, Expert, Guidance, InputTable, Mpc, Policy, RlGuidance, RlMpcOptions, Rules,
 };
 use crate::job::build::{
     bands_name, guide_factory, input_table, load_model, make_mpc, parse_horizon, parse_inputs,
@@ -333,7 +333,14 @@ fn build(
                 "agent": agent.as_ref().map_or("shipped".into(), |a| a.display().to_string()),
                 "agent_episode": file.episode,
             });
-            built.controller = Box::new(Policy::new(plant, file).map_err(fail)?);
+            let policy = Policy::new(plant, file).map_err(fail)?;
+            // Counted as a horizon counts the rows it reads, the current one included; a
+            // policy that sees the current weather only needs none past a season's end.
+            built.forecast = match policy.forecast_rows() {
+                0 => 0,
+                rows => rows + 1,
+            };
+            built.controller = Box::new(policy);
         }
         ControllerSpec::Mpc(mpc) => {
             let (controller, horizon, extra) = build_mpc(mpc, plant, plant_spec)?;
@@ -342,10 +349,10 @@ fn build(
             built.extra = extra;
         }
         ControllerSpec::Rlmpc(rlmpc) => {
-            let (controller, horizon, extra) = build_rlmpc(rlmpc, plant, plant_spec, files)?;
+            let (controller, forecast, extra) = build_rlmpc(rlmpc, plant, plant_spec, files)?;
             built.controller = Box::new(controller);
             built.label = rlmpc.label();
-            built.forecast = horizon;
+            built.forecast = forecast;
             built.extra = extra;
         }
         ControllerSpec::Optimum(optimum) => {
@@ -382,7 +389,8 @@ fn build_mpc(
     Ok((mpc, horizon, extra))
 }
 
-/// RL-guided MPC with its horizon in steps and its summary fields.
+/// RL-guided MPC with the forecast rows it reads (its horizon in steps and the guide's own
+/// past it) and its summary fields.
 fn build_rlmpc(
     rlmpc: &RlmpcSpec,
     plant: &Arc<Plant>,
@@ -421,6 +429,8 @@ fn build_rlmpc(
     )
     .map_err(|e| JobError::Spec(e.to_string()))?;
     let (mpc, horizon, mut extra) = build_mpc(&rlmpc.mpc, plant, plant_spec)?;
+    // The guide's roll-out over the horizon reads its own forecast rows past it.
+    let forecast_rows = horizon + guidance.forecast_rows();
     if let Some(map) = extra.as_object_mut() {
         map.extend([
             ("guide".into(), json!(rlmpc.guide.name())),
@@ -429,7 +439,7 @@ fn build_rlmpc(
             ("terminal_cost".into(), json!(rlmpc.terminal_cost)),
         ]);
     }
-    Ok((mpc.with_guidance(Box::new(guidance)), horizon, extra))
+    Ok((mpc.with_guidance(Box::new(guidance)), forecast_rows, extra))
 }
 
 /// The season optimum's inputs, from a closed loop of MPC (or the spec's inputs) refined as

@@ -134,7 +134,6 @@ pub fn run_value_job(spec: &ValueSpec, out: &Path, options: &JobOptions) -> Resu
             .ok_or_else(|| JobError::field("state", name, "no such state in the model"))?,
     };
     let steps = args.weather.steps(&plant.model)?;
-    let weather = args.weather.load(&plant.model, steps, 0)?;
     let policy = resolve_guide_policy(
         args.guide,
         &args.model,
@@ -144,6 +143,10 @@ pub fn run_value_job(spec: &ValueSpec, out: &Path, options: &JobOptions) -> Resu
         true,
     )?;
     let make_guide = guide_factory(&plant, args.guide, policy)?;
+    // A guide that reads the forecast reads it past the season's end too.
+    let weather = args
+        .weather
+        .load(&plant.model, steps, make_guide().forecast_rows())?;
     let folder = RunFolder::claim(out, options.overwrite, Some(json!(spec)))?;
     let job = FitJob {
         spec,

@@ -9,7 +9,9 @@
 //!   the parameters in force at step `k`), the input applied at the previous step, the step
 //!   index as `f64`, and the disturbance of the current step. Length `ny + nu + 1 + nd`.
 //!   The observation after the last step reads the weather row `min(k, len − 1)`, so a weather
-//!   exactly as long as the episode suffices.
+//!   exactly as long as the episode suffices. With [`Env::observing`] an observation of
+//!   version 2 also holds forecast rows `d(k+1), …, d(k+F)`, a row past the weather's end
+//!   repeating its last.
 //! * **action** `a ∈ [−1, 1]^nu` (entries outside are clipped first) maps to the input
 //!   `u(k) = clip(u(k−1) + a ⊙ δu, u_min, u_max)`, where `δu` is each input's rate limit, or
 //!   its full range `upper − lower` when it has none ([`Env::action_scale`]). Bounds and rate
@@ -27,9 +29,7 @@
 //! A step allocates nothing: every buffer (state, input, parameters, observation and the
 //! plant's tape workspace) is kept in the environment.
 
-pub use crate::agent::observation::{
-    action_scale, input_from_action, observation_after_outputs, observation_names,
-};
+pub use crate::agent::observation::{action_scale, input_from_action, ObservationLayout};
 #[cfg(doc)]
 use crate::agent::AgentError;
 use crate::lang::model::Redraw;
@@ -110,6 +110,7 @@ pub struct Env {
     previous_input: Vec<f64>,
     input: Vec<f64>,
     params: Vec<f64>,
+    layout: ObservationLayout,
     observation: Vec<f64>,
     ws: StepWorkspace,
     out: StepOutcome,
@@ -170,6 +171,7 @@ impl Env {
             state: model.initial_state(),
             previous_input: model.start_input(),
             input: model.start_input(),
+            layout: ObservationLayout::CURRENT_WEATHER,
             observation: vec![0.0; ny + l.nu + 1 + l.nd],
             ws: plant.workspace(),
             out: StepOutcome {
@@ -182,6 +184,20 @@ impl Env {
             steps,
             uncertainty,
         })
+    }
+
+    /// The environment with observations of `layout` (version 1, the current weather, is
+    /// [`Env::new`]'s); to be reset before the next step.
+    pub fn observing(mut self, layout: ObservationLayout) -> Env {
+        self.observation = vec![0.0; layout.width(&self.plant.model)];
+        self.layout = layout;
+        self.phase = Phase::Fresh;
+        self
+    }
+
+    /// Which observation the environment gives.
+    pub fn observation_layout(&self) -> ObservationLayout {
+        self.layout
     }
 
     /// Restarts the uncertainty RNG from `seed` (replacing the draw's seed); the next
@@ -294,6 +310,8 @@ impl Env {
     fn observe(&mut self) {
         let ny = self.plant.model.outputs.len();
         let row = self.k.min(self.weather.len().saturating_sub(1));
+        let rows = (1 + self.layout.forecast_rows()).min(self.weather.len() - row);
+        let forecast = self.weather.horizon(row, rows).unwrap_or_default();
         let d = self.weather.at(row);
         let (y, rest) = self.observation.split_at_mut(ny);
         self.plant.outputs_into(
@@ -304,14 +322,21 @@ impl Env {
             &self.params,
             y,
         );
-        observation_after_outputs(rest, &self.previous_input, self.k, d);
+        self.layout.write_after_outputs(
+            rest,
+            &self.previous_input,
+            self.k,
+            forecast,
+            self.plant.layout.nd,
+        );
     }
 
     fn delta(&self) -> f64 {
         self.uncertainty.map_or(0.0, |u| u.delta)
     }
 
-    /// Length of an observation: outputs + inputs + 1 + disturbances.
+    /// Length of an observation: outputs + inputs + 1 + disturbances (times one and the
+    /// forecast rows).
     pub fn observation_len(&self) -> usize {
         self.observation.len()
     }
@@ -332,10 +357,10 @@ impl Env {
         &self.scale
     }
 
-    /// Names of the observation entries: the outputs, `prev_<input>` per input, `step`, and
-    /// the disturbances.
+    /// Names of the observation entries: the outputs, `prev_<input>` per input, `step`, the
+    /// disturbances, and their forecast rows ([`ObservationLayout::names`]).
     pub fn observation_names(&self) -> Vec<String> {
-        observation_names(&self.plant.model)
+        self.layout.names(&self.plant.model)
     }
 
     /// Names of the action entries: the model's inputs, in order.

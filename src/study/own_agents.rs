@@ -76,6 +76,8 @@ pub(super) struct Distilled {
     noise: f64,
     /// `FIRST..LAST`: the rows of the weather the noisy roll-outs start at.
     start_rows: Option<String>,
+    /// Rows of forecast the guide observes after the current weather.
+    forecast_rows: usize,
     epochs: usize,
     seed: u64,
     /// The stochastic scenarios' guides are distilled on the perturbed plant (the
@@ -94,6 +96,7 @@ impl Default for Distilled {
             roll_outs: spec.roll_outs,
             noise: spec.noise,
             start_rows: None,
+            forecast_rows: spec.forecast_rows,
             epochs: spec.fit.epochs,
             seed: spec.seed,
             stochastic: true,
@@ -118,6 +121,7 @@ impl Distilled {
             roll_outs: self.roll_outs,
             noise: self.noise,
             start_rows,
+            forecast_rows: self.forecast_rows,
             seed: self.seed,
             ..default
         };

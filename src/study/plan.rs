@@ -640,6 +640,7 @@ mod tests {
             [distilled]
             iterations = 3
             start_rows = "0..5000"
+            forecast_rows = 12
             [distilled.teacher]
             kind = "mpc"
             horizon = "2h"
@@ -672,6 +673,7 @@ mod tests {
             panic!("{:?}", jobs[1].work);
         };
         assert!(distill.stochastic && distill.uncertainty == 0.05 && distill.iterations == 3);
+        assert_eq!(distill.forecast_rows, 12);
         assert_eq!(distill.teacher.horizon(), Some("2h"));
         assert_eq!(
             distill.start_rows,

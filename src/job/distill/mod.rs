@@ -22,6 +22,11 @@
 //! from its last finished iteration when run again with the same spec, and a finished one
 //! goes on for more iterations when given them; either ends as a job run at once would.
 //!
+//! The student observes the current weather (observation version 1) or, with
+//! `forecast_rows`, also that many rows of the forecast after it (version 2,
+//! [`ObservationLayout`]): a controller that plans over a horizon decides from the weather
+//! to come, and a student that sees it can follow.
+//!
 //! The run folder holds `labels/iteration-NN.csv` (every labelled observation),
 //! `student.json` (the student's weights and statistics after the last finished
 //! iteration: the checkpoint), `distill_curve.csv` and `.png` (each iteration's student
@@ -30,7 +35,7 @@
 mod files;
 mod roll_outs;
 
-use crate::agent::observation::observation_names;
+use crate::agent::observation::ObservationLayout;
 use crate::agent::{Normalizer, PolicyFile};
 use crate::job::folder::{self, RunFolder};
 use crate::job::output::{io_err, println_beside, progress_bar_if, write_atomically};
@@ -78,6 +83,9 @@ pub struct DistillSpec {
     /// guide learns from more of the year than one season. `None`: every roll-out on
     /// `weather`'s season.
     pub start_rows: Option<StartRows>,
+    /// Rows of weather forecast the student observes after the current one (0: the
+    /// current weather only, observation version 1; more: version 2).
+    pub forecast_rows: usize,
     /// The student's network and its fit.
     pub fit: ImitationConfig,
 }
@@ -131,6 +139,7 @@ impl Default for DistillSpec {
             roll_outs: 4,
             noise: 0.1,
             start_rows: None,
+            forecast_rows: 0,
             fit: ImitationConfig::default(),
         }
     }
@@ -142,6 +151,9 @@ pub const DEFAULT_STOCHASTIC_UNCERTAINTY: f64 = crate::job::train::DEFAULT_STOCH
 
 /// The most DAgger iterations of one distillation.
 pub const MAX_ITERATIONS: usize = 1000;
+
+/// The most forecast rows a student observes (a week of half-hour steps).
+pub const MAX_FORECAST_ROWS: usize = 336;
 
 impl DistillSpec {
     /// Refuses settings that cannot distil: the error names the field.
@@ -162,6 +174,13 @@ impl DistillSpec {
         }
         if self.roll_outs == 0 {
             return Err(JobError::field("roll_outs", 0, "must be at least 1"));
+        }
+        if self.forecast_rows > MAX_FORECAST_ROWS {
+            return Err(JobError::field(
+                "forecast_rows",
+                self.forecast_rows,
+                format!("must be at most {MAX_FORECAST_ROWS}"),
+            ));
         }
         if !(self.noise >= 0.0 && self.noise.is_finite()) {
             return Err(JobError::field("noise", self.noise, "must be a number ≥ 0"));
@@ -213,6 +232,11 @@ impl DistillSpec {
             },
             controller: self.teacher.clone(),
         }
+    }
+
+    /// The observation the student sees.
+    fn observation(&self) -> ObservationLayout {
+        ObservationLayout::with_forecast(self.forecast_rows)
     }
 
     /// The parameter draw of roll-out `index` (counted over all iterations), `None` on the
@@ -274,7 +298,7 @@ pub fn run_distill_job(
     let plant = Arc::new(Plant::new(load_model(&spec.model)?));
     let steps = spec.weather.steps(&plant.model)?;
     let probe = build_controller(&spec.teacher_run())?;
-    let forecast_rows = probe.forecast_rows;
+    let forecast_rows = probe.forecast_rows.max(spec.forecast_rows);
     drop(probe);
     let weather = spec.weather.load(&plant.model, steps, forecast_rows)?;
     if let Some(rows) = spec.start_rows {
@@ -329,7 +353,7 @@ struct Job<'a> {
     plant: Arc<Plant>,
     /// The season's weather (and the teacher's forecast past its end).
     weather: Weather,
-    /// Rows of forecast the teacher reads past a season's end.
+    /// Rows of forecast the teacher and the student read past a season's end.
     forecast_rows: usize,
     steps: usize,
     out: &'a Path,
@@ -340,7 +364,7 @@ struct Job<'a> {
 impl Job<'_> {
     fn run(&self, checkpoint: Option<Checkpoint>) -> Result<(), JobError> {
         let spec = self.spec;
-        let names = observation_names(&self.plant.model);
+        let names = spec.observation().names(&self.plant.model);
         let (width, nu) = (names.len(), self.plant.layout.nu);
         let mut data = Demonstrations::new(width, nu);
         let (mut state, first) = match checkpoint {
@@ -472,7 +496,8 @@ impl Job<'_> {
         let model = &self.plant.model;
         Ok(PolicyFile {
             model: model.name.clone(),
-            observation_names: observation_names(model),
+            observation: self.spec.observation(),
+            observation_names: self.spec.observation().names(model),
             action_names: model.inputs.iter().map(|u| u.info.name.clone()).collect(),
             normalizer: checkpoint.normalizer.clone(),
             actor,

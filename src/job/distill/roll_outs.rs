@@ -3,11 +3,10 @@
 //! `threads` at a time; and the student's evaluation.
 
 use super::{Job, MAX_ITERATIONS};
-use crate::agent::observation::{action_from_input, observation_names};
+use crate::agent::observation::action_from_input;
 use crate::agent::PolicyFile;
 use crate::control::{Controller, Observation};
 use crate::job::{build_controller, JobError, WeatherSpec};
-use crate::model::Plant;
 use crate::rl::imitation::Demonstrations;
 use crate::rl::sac::agent::standard_normal;
 use crate::rl::{Env, RlError};
@@ -53,7 +52,7 @@ impl Job<'_> {
                 .collect()
         });
         let (width, nu) = (
-            observation_names(&self.plant.model).len(),
+            spec.observation().width(&self.plant.model),
             self.plant.layout.nu,
         );
         let mut labelled = Labelled {
@@ -118,15 +117,20 @@ impl Job<'_> {
             }
             Ok(())
         };
+        let weather = elsewhere.as_ref().unwrap_or(&self.weather);
         roll_out(
-            &self.plant,
-            elsewhere.as_ref().unwrap_or(&self.weather),
-            self.steps,
-            spec.draw(index),
+            self.env(weather, spec.draw(index))?,
             Some(teacher.as_mut()),
             &mut driver,
             tick,
         )
+    }
+
+    /// The student's environment over `weather` on the plant `draw` perturbs (the nominal
+    /// one for `None`), observed as the student observes.
+    fn env(&self, weather: &Weather, draw: Option<UncertaintyDraw>) -> Result<Env, JobError> {
+        let env = Env::new(Arc::clone(&self.plant), weather.clone(), self.steps, draw)?;
+        Ok(env.observing(self.spec.observation()))
     }
 
     /// The student's reward on a noise-free roll-out of its own: on the nominal plant, or
@@ -145,16 +149,7 @@ impl Job<'_> {
                 action.copy_from_slice(&policy.action(observation)?);
                 Ok(())
             };
-            sum += roll_out(
-                &self.plant,
-                &self.weather,
-                self.steps,
-                *draw,
-                None,
-                &mut act,
-                &|| {},
-            )?
-            .reward;
+            sum += roll_out(self.env(&self.weather, *draw)?, None, &mut act, &|| {})?.reward;
         }
         Ok(sum / draws.len() as f64)
     }
@@ -171,21 +166,19 @@ struct RollOut {
 type ChooseAction<'a> =
     dyn FnMut(&[f64], &[f64], &mut [f64]) -> Result<(), crate::agent::AgentError> + 'a;
 
-/// A season on the agent's environment: `act(observation, label, action)` sets each
-/// step's action, the label being the `teacher`'s decision as an action (zeros without a
-/// teacher). A plant that diverges ends the roll-out with what it labelled.
+/// A season on the agent's environment `env`, reset first: `act(observation, label,
+/// action)` sets each step's action, the label being the `teacher`'s decision as an action
+/// (zeros without a teacher). A plant that diverges ends the roll-out with what it
+/// labelled.
 fn roll_out(
-    plant: &Arc<Plant>,
-    weather: &Weather,
-    steps: usize,
-    draw: Option<UncertaintyDraw>,
+    mut env: Env,
     mut teacher: Option<&mut dyn Controller>,
     act: &mut ChooseAction<'_>,
     tick: &(dyn Fn() + Sync),
 ) -> Result<RollOut, JobError> {
-    let mut env = Env::new(Arc::clone(plant), weather.clone(), steps, draw)?;
     let (width, nu) = (env.observation_len(), env.action_len());
-    let ny = plant.model.outputs.len();
+    let ny = env.plant().model.outputs.len();
+    let steps = env.episode_len();
     let mut result = RollOut {
         demonstrations: Demonstrations::new(width, nu),
         reward: 0.0,
@@ -195,6 +188,7 @@ fn roll_out(
     let (mut label, mut action) = (vec![0.0; nu], vec![0.0; nu]);
     for k in 0..steps {
         if let Some(teacher) = teacher.as_deref_mut() {
+            let weather = env.weather();
             let forecast = weather.horizon(k, weather.len() - k).unwrap_or(&[]);
             let decision = teacher
                 .decide(&Observation {

@@ -416,6 +416,7 @@ impl Trainer {
             .with_output_activation(Activation::Tanh);
         Ok(PolicyFile {
             model: model_name.to_string(),
+            observation: self.env.observation_layout(),
             observation_names: self.env.observation_names(),
             action_names: self.env.action_names(),
             normalizer,
