@@ -3,6 +3,14 @@
 //!
 //! Its moments are plain vectors beside the parameters, so a checkpoint stores them exactly
 //! and a resumed training takes bit-for-bit the steps an uninterrupted one would.
+//!
+//! A moment that falls below the smallest normal `f32` is set to zero. The moments of a
+//! unit whose gradient has stopped (a ReLU that no longer fires) decay by β every step, and
+//! after some 800 steps they are subnormal numbers, which x86 cores multiply tens of times
+//! more slowly: at the end of the paper study's 100-episode trainings a quarter of the
+//! agent's stored values were subnormal moments, and a learning episode took 19 s against
+//! 15 s at the start. Zero in their place moves no parameter differently (`m̂ / (√v̂ + ε)`
+//! with such an `m` is below 1e-30).
 
 use serde::{Deserialize, Serialize};
 
@@ -58,8 +66,8 @@ impl Adam {
             .zip(&mut self.second)
         {
             for (((p, g), m), v) in p.iter_mut().zip(g).zip(m.iter_mut()).zip(v.iter_mut()) {
-                *m = self.beta1 * *m + (1.0 - self.beta1) * g;
-                *v = self.beta2 * *v + (1.0 - self.beta2) * g * g;
+                *m = normal_or_zero(self.beta1 * *m + (1.0 - self.beta1) * g);
+                *v = normal_or_zero(self.beta2 * *v + (1.0 - self.beta2) * g * g);
                 let denominator = v.sqrt() / correction2_sqrt + self.epsilon;
                 *p -= step_size * *m / denominator;
             }
@@ -67,9 +75,36 @@ impl Adam {
     }
 }
 
+/// `x`, or zero where it is subnormal (see the [module documentation](self)).
+fn normal_or_zero(x: f32) -> f32 {
+    if x.abs() < f32::MIN_POSITIVE {
+        0.0
+    } else {
+        x
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn moments_of_a_parameter_whose_gradient_stopped_end_at_zero_not_subnormal() {
+        let mut x = vec![1.0f32];
+        let mut adam = Adam::new(&[1]);
+        adam.step(1e-3, vec![x.as_mut_slice()], &[vec![1.0]]);
+        // β₁⁹⁰⁰ · 0.1 ≈ 1e-42 and β₂ decays slower: after 900 steps without a gradient the
+        // first moment would be subnormal.
+        for _ in 0..900 {
+            adam.step(1e-3, vec![x.as_mut_slice()], &[vec![0.0]]);
+        }
+        let moments: Vec<f32> = adam.moments().flatten().copied().collect();
+        assert_eq!(moments[0], 0.0, "{moments:?}");
+        assert!(
+            moments.iter().all(|m| *m == 0.0 || m.is_normal()),
+            "{moments:?}"
+        );
+    }
 
     #[test]
     fn minimises_a_quadratic() {
