@@ -172,7 +172,7 @@ impl Env {
             previous_input: model.start_input(),
             input: model.start_input(),
             layout: ObservationLayout::CURRENT_WEATHER,
-            observation: vec![0.0; ny + l.nu + 1 + l.nd],
+            observation: vec![0.0; ObservationLayout::CURRENT_WEATHER.width(model)],
             ws: plant.workspace(),
             out: StepOutcome {
                 next_state: Vec::with_capacity(l.nx),
