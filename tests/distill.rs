@@ -7,6 +7,7 @@ use ghm::job::{
     run_season_job, ControllerSpec, CostForm, GuideChoice, JobOptions, MpcSpec, OptimumSpec,
     PlantSpec, RlmpcSpec, RunSpec, WeatherSpec,
 };
+use ghm::sim::weather::{saturation_vapour_pressure, Warming};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
@@ -165,6 +166,67 @@ fn roll_outs_that_start_elsewhere_label_other_weather_and_keep_the_season_for_ev
     };
     let e = run_distill_job(&file, &temp_dir("start-rows-short"), &QUIET, false, 1).unwrap_err();
     assert!(e.to_string().contains("`start_rows`"), "{e}");
+}
+
+#[test]
+fn warmed_roll_outs_label_warmer_weather_at_the_same_relative_humidity() {
+    let warming =
+        |range: &str, keep: &str| Some(range.parse::<Warming>().unwrap().keeping_humidity([keep]));
+    let out = temp_dir("warming");
+    let warmed = DistillSpec {
+        warming: warming("5..5", "hum_out"),
+        ..spec(1)
+    };
+    run_distill_job(&warmed, &out, &QUIET, false, 2).unwrap();
+    let labels = std::fs::read_to_string(out.join("labels/iteration-00.csv")).unwrap();
+    let header: Vec<&str> = labels.lines().next().unwrap().split(',').collect();
+    let at = |name: &str| header.iter().position(|c| *c == name).unwrap();
+    let (temperature, humidity) = (at("temp_out"), at("hum_out"));
+    let rows = |roll_out: &str| -> Vec<Vec<f64>> {
+        labels
+            .lines()
+            .skip(1)
+            .filter(|l| l.starts_with(&format!("{roll_out},")))
+            .map(|l| {
+                l.split(',')
+                    .map(|v| v.parse().unwrap_or(f64::NAN))
+                    .collect()
+            })
+            .collect()
+    };
+    // Roll-out 0 is the season as recorded; roll-out 1 the same days, 5 degrees warmer.
+    let (recorded, warmer) = (rows("0"), rows("1"));
+    assert_eq!(recorded.len(), warmer.len());
+    for (r, w) in recorded.iter().zip(&warmer) {
+        let t = r[temperature];
+        assert!(
+            (w[temperature] - (t + 5.0)).abs() < 1e-9,
+            "{} {}",
+            w[temperature],
+            t
+        );
+        let kept = saturation_vapour_pressure(t + 5.0) / saturation_vapour_pressure(t)
+            * (t + 273.15)
+            / (t + 5.0 + 273.15);
+        assert!((w[humidity] / r[humidity] - kept).abs() < 1e-9);
+    }
+    // The students are still evaluated on the season as recorded.
+    let at_home = temp_dir("warming-home");
+    run_distill_job(&spec(1), &at_home, &QUIET, false, 2).unwrap();
+    assert_eq!(
+        summary(&out)["teacher_reward"],
+        summary(&at_home)["teacher_reward"]
+    );
+    // A humidity in another unit is refused by the field's name before anything runs.
+    let wrong = DistillSpec {
+        warming: warming("0..8", "radiation"),
+        ..spec(1)
+    };
+    let e = run_distill_job(&wrong, &temp_dir("warming-wrong"), &QUIET, false, 1).unwrap_err();
+    assert!(
+        e.to_string().contains("`warming`") && e.to_string().contains("radiation"),
+        "{e}"
+    );
 }
 
 #[test]

@@ -10,6 +10,7 @@ use crate::job::distill::{
 };
 use crate::job::{ControllerSpec, JobOptions};
 use crate::rl::imitation::ImitationConfig;
+use crate::sim::weather::Warming;
 use clap::Args;
 use std::path::PathBuf;
 
@@ -39,6 +40,15 @@ pub struct DistillArgs {
     /// students are still evaluated on the season.
     #[arg(long, value_name = "FIRST..LAST", value_parser = str::parse::<StartRows>)]
     pub start_rows: Option<StartRows>,
+    /// Warm the noisy roll-outs' weather: every temperature (°C) of each raised by degrees
+    /// drawn from LO..HI, so the guide meets warmer days than the rows it learns from
+    /// (e.g. summer from spring's rows).
+    #[arg(long, value_name = "LO..HI", value_parser = str::parse::<Warming>)]
+    pub warming: Option<Warming>,
+    /// A humidity (vapour density in kg m^-3 or pressure in Pa) the warming keeps at its
+    /// relative humidity, as warmer air holds more water (repeat for more).
+    #[arg(long, value_name = "NAME", requires = "warming")]
+    pub keep_humidity: Vec<String>,
     /// Rows of weather forecast the student observes after the current weather (0: the
     /// current weather only, observation version 1; more: version 2, e.g. 12 for the six
     /// half-hours a 6 h teacher plans over).
@@ -85,6 +95,10 @@ pub fn run(args: &DistillArgs) -> Result<(), CliError> {
         roll_outs: args.roll_outs,
         noise: args.noise,
         start_rows: args.start_rows,
+        warming: args
+            .warming
+            .clone()
+            .map(|w| w.keeping_humidity(args.keep_humidity.iter().cloned())),
         forecast_rows: args.forecast_rows,
         fit: ImitationConfig {
             epochs: args.epochs,

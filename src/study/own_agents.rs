@@ -6,7 +6,7 @@
 //! A season whose controller names no agent or value network of its own reads the study's.
 
 use super::jobs::{Job, Work};
-use crate::job::distill::{DistillSpec, StartRows};
+use crate::job::distill::{DistillSpec, StartRows, Warming};
 use crate::job::train::TrainSpec;
 use crate::job::value::ValueSpec;
 use crate::job::{ControllerSpec, CostForm, GuideChoice, PlantSpec, WeatherSpec};
@@ -76,6 +76,10 @@ pub(super) struct Distilled {
     noise: f64,
     /// `FIRST..LAST`: the rows of the weather the noisy roll-outs start at.
     start_rows: Option<String>,
+    /// `LO..HI`: the degrees the noisy roll-outs' weather is warmed by.
+    warming: Option<String>,
+    /// The humidities the warming keeps at their relative humidity.
+    keep_humidity: Vec<String>,
     /// Rows of forecast the guide observes after the current weather.
     forecast_rows: usize,
     epochs: usize,
@@ -96,6 +100,8 @@ impl Default for Distilled {
             roll_outs: spec.roll_outs,
             noise: spec.noise,
             start_rows: None,
+            warming: None,
+            keep_humidity: Vec::new(),
             forecast_rows: spec.forecast_rows,
             epochs: spec.fit.epochs,
             seed: spec.seed,
@@ -115,12 +121,23 @@ impl Distilled {
             .map(str::parse::<StartRows>)
             .transpose()
             .map_err(|e| format!("[distilled] start_rows: {e}"))?;
+        let warming = match (&self.warming, self.keep_humidity.is_empty()) {
+            (Some(range), _) => Some(
+                range
+                    .parse::<Warming>()
+                    .map_err(|e| format!("[distilled] warming: {e}"))?
+                    .keeping_humidity(self.keep_humidity.iter().cloned()),
+            ),
+            (None, true) => None,
+            (None, false) => return Err("[distilled] keep_humidity needs a warming".into()),
+        };
         let mut spec = DistillSpec {
             teacher: teacher.unwrap_or(default.teacher),
             iterations: self.iterations,
             roll_outs: self.roll_outs,
             noise: self.noise,
             start_rows,
+            warming,
             forecast_rows: self.forecast_rows,
             seed: self.seed,
             ..default

@@ -640,6 +640,8 @@ mod tests {
             [distilled]
             iterations = 3
             start_rows = "0..5000"
+            warming = "0..8"
+            keep_humidity = ["hum_out"]
             forecast_rows = 12
             [distilled.teacher]
             kind = "mpc"
@@ -674,6 +676,11 @@ mod tests {
         };
         assert!(distill.stochastic && distill.uncertainty == 0.05 && distill.iterations == 3);
         assert_eq!(distill.forecast_rows, 12);
+        let warming = distill.warming.as_ref().unwrap();
+        assert_eq!(
+            (warming.degrees, &warming.keep_humidity[..]),
+            ([0.0, 8.0], &["hum_out".to_string()][..])
+        );
         assert_eq!(distill.teacher.horizon(), Some("2h"));
         assert_eq!(
             distill.start_rows,
@@ -728,6 +735,17 @@ mod tests {
             e.contains("[distilled] start_rows: `9` is not FIRST..LAST"),
             "{e}"
         );
+        for (distilled, expected) in [
+            ("warming = \"8\"", "[distilled] warming: `8` is not LO..HI"),
+            (
+                "keep_humidity = [\"hum_out\"]",
+                "[distilled] keep_humidity needs a warming",
+            ),
+        ] {
+            let text = format!("models = [\"m.ghm\"]\n[distilled]\n{distilled}\n[[controllers]]\nkind = \"expert\"");
+            let e = plan_text(&text).unwrap_err();
+            assert!(e.contains(expected), "{text}\n→ {e}");
+        }
     }
 
     #[test]

@@ -163,6 +163,13 @@ def main():
     ap.add_argument("--start-day", type=int, default=0, help="whole days after 2009-10-20 00:00 (default 0)")
     ap.add_argument("--days", type=int, default=10, help="window length in days (default 10)")
     ap.add_argument("--out", required=True, help="output folder")
+    ap.add_argument("--rtol", default="1e-8", help="relative tolerance of the open-loop run (default 1e-8)")
+    ap.add_argument("--atol", default="1e-6", help="absolute tolerance of the open-loop run (default 1e-6)")
+    ap.add_argument(
+        "--controls",
+        help="take the open loop's controls from this controls.csv (of an earlier run of this "
+        "script over the same window) instead of running the closed loop; rules.csv is then not written",
+    )
     args = ap.parse_args()
 
     model_path, weather_path = package_paths()
@@ -175,26 +182,33 @@ def main():
     os.makedirs(args.out, exist_ok=True)
     grid = t0 + STEP * np.arange(int(round((t1 - t0) / STEP)) + 1)  # t0 .. t1 inclusive
 
-    # ---- 1. closed loop with GreenLight's own rules, default solver options ----
-    rules_opts = options_dict(t0, t1)
-    prompt1 = [model_path, weather_path, time_state_init(args.start_day), rules_opts]
-    m1, load1, solve1 = run_greenlight(prompt1, os.path.join(args.out, "rules_greenlight.log"))
-    sol1 = m1.full_sol
-    if not np.allclose(sol1["Time"].to_numpy(dtype=float), grid, rtol=0, atol=1e-6):
-        raise RuntimeError("closed-loop output times differ from the 300 s grid")
-    states = list(m1.states.keys())
-    check("rules", sol1, states + CONTROLS + RULES_EXTRA)
-    ctrl_rows = slice(0, len(grid) - 1)  # one control row per 300 s interval
-    write_csv(
-        os.path.join(args.out, "controls.csv"),
-        ["time_s"] + CONTROLS,
-        [grid[ctrl_rows]] + [sol1[c].to_numpy(dtype=float)[ctrl_rows] for c in CONTROLS],
-    )
-    write_csv(
-        os.path.join(args.out, "rules.csv"),
-        ["time_s"] + states + CONTROLS + RULES_EXTRA,
-        [grid] + [sol1[c].to_numpy(dtype=float) for c in states + CONTROLS + RULES_EXTRA],
-    )
+    if args.controls is None:
+        # ---- 1. closed loop with GreenLight's own rules, default solver options ----
+        rules_opts = options_dict(t0, t1)
+        prompt1 = [model_path, weather_path, time_state_init(args.start_day), rules_opts]
+        m1, load1, solve1 = run_greenlight(prompt1, os.path.join(args.out, "rules_greenlight.log"))
+        sol1 = m1.full_sol
+        if not np.allclose(sol1["Time"].to_numpy(dtype=float), grid, rtol=0, atol=1e-6):
+            raise RuntimeError("closed-loop output times differ from the 300 s grid")
+        states = list(m1.states.keys())
+        check("rules", sol1, states + CONTROLS + RULES_EXTRA)
+        ctrl_rows = slice(0, len(grid) - 1)  # one control row per 300 s interval
+        write_csv(
+            os.path.join(args.out, "controls.csv"),
+            ["time_s"] + CONTROLS,
+            [grid[ctrl_rows]] + [sol1[c].to_numpy(dtype=float)[ctrl_rows] for c in CONTROLS],
+        )
+        write_csv(
+            os.path.join(args.out, "rules.csv"),
+            ["time_s"] + states + CONTROLS + RULES_EXTRA,
+            [grid] + [sol1[c].to_numpy(dtype=float) for c in states + CONTROLS + RULES_EXTRA],
+        )
+    else:
+        m1, load1, solve1 = None, 0.0, 0.0
+        controls_path = os.path.join(args.out, "controls.csv")
+        if os.path.abspath(args.controls) != os.path.abspath(controls_path):
+            with open(args.controls, encoding="utf-8") as src, open(controls_path, "w", encoding="utf-8") as dst:
+                dst.write(src.read())
 
     # ---- 2. open loop: the five controls fixed from controls.csv, held per row ----
     ctrl = pd.read_csv(os.path.join(args.out, "controls.csv"), dtype=float)
@@ -208,7 +222,7 @@ def main():
         v = ctrl[c].to_numpy()
         v = np.concatenate([v, np.full(len(rows) - len(v), v[-1])])  # a row at t1 repeats the last control
         combined[c] = [repr(float(x)) for x in v]
-    open_opts = options_dict(t0, t1, interpolation="left", rtol="1e-8", atol="1e-6")
+    open_opts = options_dict(t0, t1, interpolation="left", rtol=args.rtol, atol=args.atol)
     with tempfile.TemporaryDirectory() as tmp:
         inputs_path = os.path.join(tmp, "openloop_inputs.csv")
         with open(inputs_path, "w", newline="", encoding="utf-8") as f:
@@ -230,6 +244,8 @@ def main():
     if not np.allclose(sol2["Time"].to_numpy(dtype=float), grid, rtol=0, atol=1e-6):
         raise RuntimeError("open-loop output times differ from the 300 s grid")
     states2 = list(m2.states.keys())
+    if m1 is None:
+        states = states2
     assert states2 == states and len(states) == 28, states2
     check("openloop", sol2, states)
     write_csv(
@@ -240,7 +256,11 @@ def main():
 
     with open(weather_path, "rb") as f:
         weather_sha = hashlib.sha256(f.read()).hexdigest()
-    diff = {s: float(np.max(np.abs(sol1[s].to_numpy(dtype=float) - sol2[s].to_numpy(dtype=float)))) for s in states}
+    diff = (
+        {s: float(np.max(np.abs(sol1[s].to_numpy(dtype=float) - sol2[s].to_numpy(dtype=float)))) for s in states}
+        if m1 is not None
+        else None
+    )
     meta = {
         "created": datetime.datetime.now().isoformat(timespec="seconds"),
         "greenlight_version": importlib.metadata.version("greenlight"),
@@ -259,10 +279,13 @@ def main():
         "t_end_s": t1,
         "step_s": STEP,
         "time_state_init_days": float(args.start_day),
-        "initial_state": {k: float(m1.init[k]) for k in states},
+        "initial_state": {k: float(m2.init[k]) for k in states},
+        "controls_from": args.controls or "the closed-loop run above",
         "controls": CONTROLS,
         "rules_extra": RULES_EXTRA,
-        "rules_run": {
+        "rules_run": None
+        if m1 is None
+        else {
             "options": {k: m1.options[k] for k in ("solver", "rtol", "atol", "max_step", "first_step", "interpolation")},
             "load_s": load1,
             "solve_s": solve1,
@@ -289,6 +312,9 @@ def main():
     }
     with open(os.path.join(args.out, "meta.json"), "w", encoding="utf-8") as f:
         json.dump(meta, f, indent=2)
+    if diff is None:
+        print(f"done: open loop {solve2:.1f} s (rtol {args.rtol}, atol {args.atol})", file=sys.stderr)
+        return
     worst = max(diff, key=diff.get)
     print(
         f"done: rules {solve1:.1f} s, open loop {solve2:.1f} s; "

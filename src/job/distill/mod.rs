@@ -46,6 +46,7 @@ use crate::rl::imitation::{actor_weights, fit_actor, Demonstrations, ImitationCo
 use crate::rl::sac::net::Net;
 use crate::rl::RlError;
 use crate::sim::season::{derived_seed, UncertaintyDraw};
+pub use crate::sim::weather::Warming;
 use crate::sim::weather::Weather;
 use serde::{Deserialize, Serialize};
 use serde_json::json;
@@ -83,6 +84,10 @@ pub struct DistillSpec {
     /// guide learns from more of the year than one season. `None`: every roll-out on
     /// `weather`'s season.
     pub start_rows: Option<StartRows>,
+    /// Warm the noisy roll-outs' weather (each by degrees drawn uniformly from the range,
+    /// the humidities named kept at their relative humidity), so the guide meets warmer
+    /// weather than the rows it learns from. `None`: the weather as recorded.
+    pub warming: Option<Warming>,
     /// Rows of weather forecast the student observes after the current one (0: the
     /// current weather only, observation version 1; more: version 2).
     pub forecast_rows: usize,
@@ -139,6 +144,7 @@ impl Default for DistillSpec {
             roll_outs: 4,
             noise: 0.1,
             start_rows: None,
+            warming: None,
             forecast_rows: 0,
             fit: ImitationConfig::default(),
         }
@@ -296,6 +302,12 @@ pub fn run_distill_job(
 ) -> Result<(), JobError> {
     spec.check()?;
     let plant = Arc::new(Plant::new(load_model(&spec.model)?));
+    if let Some(warming) = &spec.warming {
+        warming.check(&plant.model).map_err(|e| {
+            let [lo, hi] = warming.degrees;
+            JobError::field("warming", format!("{lo}..{hi}"), e)
+        })?;
+    }
     let steps = spec.weather.steps(&plant.model)?;
     let probe = build_controller(&spec.teacher_run())?;
     let forecast_rows = probe.forecast_rows.max(spec.forecast_rows);

@@ -76,7 +76,8 @@ impl Job<'_> {
 
     /// Roll-out `r` of `iteration`: one season driven by the teacher (with `student`
     /// `None`) or the student, the noise added after the first roll-out (which also may
-    /// start elsewhere in the weather file), every state labelled by a teacher of its own.
+    /// start elsewhere in the weather file, and be warmed), every state labelled by a
+    /// teacher of its own.
     fn roll_out(
         &self,
         iteration: usize,
@@ -100,6 +101,17 @@ impl Job<'_> {
             }
             None => None,
         };
+        let warmed = match spec.warming.as_ref().filter(|_| r > 0) {
+            Some(warming) => {
+                let mut draw =
+                    ChaCha8Rng::seed_from_u64(derived_seed(spec.seed ^ 0x7761_726d, index));
+                let [lo, hi] = warming.degrees;
+                let degrees = lo + (hi - lo) * draw.random::<f64>();
+                let recorded = elsewhere.as_ref().unwrap_or(&self.weather);
+                Some(warming.apply(recorded, &self.plant.model, degrees)?)
+            }
+            None => None,
+        };
         let noise = if r == 0 { 0.0 } else { spec.noise };
         let mut rng = ChaCha8Rng::seed_from_u64(derived_seed(spec.seed ^ 0x6461_6767, index));
         let mut driver = |observation: &[f64], label: &[f64], action: &mut [f64]| {
@@ -117,7 +129,10 @@ impl Job<'_> {
             }
             Ok(())
         };
-        let weather = elsewhere.as_ref().unwrap_or(&self.weather);
+        let weather = warmed
+            .as_ref()
+            .or(elsewhere.as_ref())
+            .unwrap_or(&self.weather);
         roll_out(
             self.env(weather, spec.draw(index))?,
             Some(teacher.as_mut()),

@@ -8,6 +8,8 @@
 //! * [`load_knmi`] — KNMI hourly station data ("uurgegevens"),
 //! * [`builtin_season`] — a seeded synthetic Dutch late-winter season.
 //!
+//! [`Warming`] makes a warmer copy of a season (for guides that learn summer from spring).
+//!
 //! [`WeatherFrame::select`] then picks the model's disturbances, in the model's
 //! order, as a [`Weather`] with perfect-forecast horizon access.
 //!
@@ -43,10 +45,12 @@
 mod builtin;
 mod csv_columns;
 mod knmi;
+mod warming;
 
 pub use builtin::builtin_season;
 pub use csv_columns::load_csv;
 pub use knmi::load_knmi;
+pub use warming::Warming;
 
 use crate::lang::model::CLOCK_COLUMN;
 use std::path::{Path, PathBuf};
@@ -235,10 +239,15 @@ pub fn co2_ppm_to_kgm3(ppm: f64, t_c: f64) -> f64 {
     101325.0 * 1e-6 * ppm * 0.04401 / (8.3144598 * (t_c + 273.15))
 }
 
+/// Saturation vapour pressure of water in Pa at temperature `t_c` (°C), by the Magnus
+/// formula.
+pub fn saturation_vapour_pressure(t_c: f64) -> f64 {
+    610.78 * (17.2694 * t_c / (t_c + 238.3)).exp()
+}
+
 /// Vapour density in kg m⁻³ from relative humidity `rh_pct` (%) at temperature `t_c` (°C).
 pub fn rh_to_vapour_kgm3(rh_pct: f64, t_c: f64) -> f64 {
-    let p_sat = 610.78 * (17.2694 * t_c / (t_c + 238.3)).exp();
-    (rh_pct / 100.0) * p_sat * 18.01528e-3 / (8.3144598 * (t_c + 273.15))
+    (rh_pct / 100.0) * saturation_vapour_pressure(t_c) * 18.01528e-3 / (8.3144598 * (t_c + 273.15))
 }
 
 /// A table of named weather columns at a fixed period, row-major.
