@@ -10,6 +10,7 @@
 
 mod controllers;
 
+use ghm::agent::observation::ObservationLayout;
 use ghm::model::Plant;
 use ghm::rl::{Env, RlError};
 use ghm::sim::season::{UncertaintyDraw, MAX_SEASON_STEPS};
@@ -65,6 +66,7 @@ fn season_steps(plant: &Plant, days: f64) -> PyResult<usize> {
 
 /// One environment of the model at `model`, built from the Python arguments (shared by
 /// `RawEnv` and `RawVecEnv`).
+#[allow(clippy::too_many_arguments)]
 fn build_env(
     model: &Path,
     weather: Option<PathBuf>,
@@ -73,10 +75,17 @@ fn build_env(
     uncertainty: f64,
     seed: u64,
     weather_seed: u64,
+    forecast_rows: usize,
 ) -> PyResult<Env> {
     if !(0.0..1.0).contains(&uncertainty) {
         return Err(PyValueError::new_err(format!(
             "uncertainty = {uncertainty}: the relative parameter spread must be in [0, 1)"
+        )));
+    }
+    if forecast_rows > ObservationLayout::MAX_FORECAST_ROWS {
+        return Err(PyValueError::new_err(format!(
+            "forecast_rows = {forecast_rows}: an observation holds at most {} rows of forecast",
+            ObservationLayout::MAX_FORECAST_ROWS
         )));
     }
     let plant = load_plant(model)?;
@@ -85,13 +94,17 @@ fn build_env(
         Some(path) => WeatherSource::Csv(path),
         None => WeatherSource::Builtin { seed: weather_seed },
     };
-    let weather = season_weather(&plant.model, &source, start_row, steps)
+    // The rows past the season's end that its last observations read, as a season of
+    // the job layer loads them.
+    let weather = season_weather(&plant.model, &source, start_row, steps + forecast_rows)
         .map_err(|e| PyValueError::new_err(e.to_string()))?;
     let draw = (uncertainty > 0.0).then_some(UncertaintyDraw {
         delta: uncertainty,
         seed,
     });
-    let mut env = Env::new(plant, weather, steps, draw).map_err(rl_error)?;
+    let mut env = Env::new(plant, weather, steps, draw)
+        .map_err(rl_error)?
+        .observing(ObservationLayout::with_forecast(forecast_rows));
     env.reseed(seed);
     Ok(env)
 }
@@ -105,7 +118,8 @@ struct RawEnv {
 #[pymethods]
 impl RawEnv {
     #[new]
-    #[pyo3(signature = (model, weather=None, start_row=0, days=40.0, uncertainty=0.0, seed=0, weather_seed=2014))]
+    #[pyo3(signature = (model, weather=None, start_row=0, days=40.0, uncertainty=0.0, seed=0, weather_seed=2014, forecast_rows=0))]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         model: PathBuf,
         weather: Option<PathBuf>,
@@ -114,6 +128,7 @@ impl RawEnv {
         uncertainty: f64,
         seed: u64,
         weather_seed: u64,
+        forecast_rows: usize,
     ) -> PyResult<RawEnv> {
         let env = build_env(
             &model,
@@ -123,6 +138,7 @@ impl RawEnv {
             uncertainty,
             seed,
             weather_seed,
+            forecast_rows,
         )?;
         Ok(RawEnv { env })
     }
@@ -201,7 +217,7 @@ struct RawVecEnv {
 #[pymethods]
 impl RawVecEnv {
     #[new]
-    #[pyo3(signature = (model, count, weather=None, start_row=0, days=40.0, uncertainty=0.0, seed=0, weather_seed=2014))]
+    #[pyo3(signature = (model, count, weather=None, start_row=0, days=40.0, uncertainty=0.0, seed=0, weather_seed=2014, forecast_rows=0))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         model: PathBuf,
@@ -212,6 +228,7 @@ impl RawVecEnv {
         uncertainty: f64,
         seed: u64,
         weather_seed: u64,
+        forecast_rows: usize,
     ) -> PyResult<RawVecEnv> {
         if !(1..=65536).contains(&count) {
             return Err(PyValueError::new_err(format!(
@@ -226,6 +243,7 @@ impl RawVecEnv {
             uncertainty,
             seed,
             weather_seed,
+            forecast_rows,
         )?;
         let (obs_len, nu) = (first.observation_len(), first.action_len());
         // Environment i draws its parameters from seed + i.

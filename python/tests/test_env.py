@@ -34,6 +34,32 @@ def test_gymnasium_make_builds_the_registered_environment():
     assert observation.shape == (12,)
 
 
+def test_an_environment_observes_the_forecast_as_a_distilled_guide_does():
+    rows = 3
+    env = ghm.Env(MODELS / "lettuce.ghm", days=1, forecast_rows=rows)
+    plain = ghm.Env(MODELS / "lettuce.ghm", days=1)
+    weather = ["radiation", "co2_out", "temp_out", "hum_out"]
+    names = env.observation_names
+    assert names[: len(plain.observation_names)] == plain.observation_names
+    assert names[len(plain.observation_names) :] == [
+        f"{d}[k+{j}]" for j in range(1, rows + 1) for d in weather
+    ]
+    check_env(env, skip_render_check=True)
+    # Row j of the forecast at step k is the current weather at step k + j; the last
+    # steps read rows past the season's end, loaded as a season of the job layer loads them.
+    now = [names.index(d) for d in weather]
+    ahead = [names.index(f"{d}[k+1]") for d in weather]
+    observations = [env.reset(seed=2)[0]]
+    done = False
+    while not done:
+        observation, _, done, _, _ = env.step(np.zeros(env.action_space.shape))
+        observations.append(observation)
+    for before, after in zip(observations, observations[1:]):
+        assert np.array_equal(before[ahead], after[now])
+    with pytest.raises(ValueError, match="forecast_rows = 400"):
+        ghm.Env(MODELS / "lettuce.ghm", days=1, forecast_rows=400)
+
+
 def random_episode(env, seed):
     rng = np.random.default_rng(seed)
     observation, _ = env.reset(seed=seed)

@@ -99,6 +99,10 @@ impl ObservationLayout {
     /// Version 1: `[y, u_prev, k, d(k)]`.
     pub const CURRENT_WEATHER: ObservationLayout = ObservationLayout { forecast_rows: 0 };
 
+    /// The most forecast rows an observation holds, where a user chooses them (a week of
+    /// half-hour steps).
+    pub const MAX_FORECAST_ROWS: usize = 336;
+
     /// Version 2 with `rows` rows of forecast after the current weather (version 1 for 0).
     pub fn with_forecast(rows: usize) -> ObservationLayout {
         ObservationLayout {

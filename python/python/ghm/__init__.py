@@ -77,6 +77,10 @@ class Env(gymnasium.Env):
     uncertainty: relative spread of the model's uncertain parameters, drawn afresh each
         episode (0: the nominal plant).
     seed: seed of the parameter draws (``reset(seed=...)`` restarts them).
+    forecast_rows: rows of the weather forecast observed after the current weather
+        (observation version 2, as a guide of ``ghm distill --forecast-rows`` observes;
+        0: the current weather only, version 1). A row past the weather's end repeats
+        the last.
     """
 
     metadata = {"render_modes": []}
@@ -89,6 +93,7 @@ class Env(gymnasium.Env):
         days: float = 40.0,
         uncertainty: float = 0.0,
         seed: Optional[int] = None,
+        forecast_rows: int = 0,
     ):
         self._raw = _ghm.RawEnv(
             os.fspath(model),
@@ -97,6 +102,7 @@ class Env(gymnasium.Env):
             days=float(days),
             uncertainty=float(uncertainty),
             seed=0 if seed is None else int(seed),
+            forecast_rows=int(forecast_rows),
         )
         self.observation_names = list(self._raw.observation_names)
         self.action_names = list(self._raw.action_names)
@@ -144,7 +150,7 @@ class VecEnv:
     ``(observations, rewards, dones)``; an environment whose season ended, or whose state
     diverged (reward 0 for that step), is reset in the same call (its row of
     ``observations`` is the new season's first). Environment ``i``
-    draws its parameters from ``seed + i``.
+    draws its parameters from ``seed + i``. ``forecast_rows`` as for ``Env``.
     """
 
     def __init__(
@@ -156,6 +162,7 @@ class VecEnv:
         days: float = 40.0,
         uncertainty: float = 0.0,
         seed: int = 0,
+        forecast_rows: int = 0,
     ):
         self._raw = _ghm.RawVecEnv(
             os.fspath(model),
@@ -165,6 +172,7 @@ class VecEnv:
             days=float(days),
             uncertainty=float(uncertainty),
             seed=int(seed),
+            forecast_rows=int(forecast_rows),
         )
         self.count = self._raw.count
 

@@ -158,8 +158,8 @@ pub const DEFAULT_STOCHASTIC_UNCERTAINTY: f64 = crate::job::train::DEFAULT_STOCH
 /// The most DAgger iterations of one distillation.
 pub const MAX_ITERATIONS: usize = 1000;
 
-/// The most forecast rows a student observes (a week of half-hour steps).
-pub const MAX_FORECAST_ROWS: usize = 336;
+/// The most forecast rows a student observes.
+pub const MAX_FORECAST_ROWS: usize = ObservationLayout::MAX_FORECAST_ROWS;
 
 impl DistillSpec {
     /// Refuses settings that cannot distil: the error names the field.
