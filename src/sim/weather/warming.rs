@@ -67,9 +67,6 @@ impl std::str::FromStr for Warming {
 impl Warming {
     /// The unit of the disturbances a warming raises.
     pub const TEMPERATURE_UNIT: &str = "°C";
-    /// The units a humidity kept at its relative humidity may have: a vapour density or a
-    /// vapour pressure.
-    pub const HUMIDITY_UNITS: [&str; 2] = ["kg m^-3", "Pa"];
     /// The largest warming, in degrees either way.
     pub const MAX_DEGREES: f64 = 30.0;
 
@@ -83,7 +80,7 @@ impl Warming {
 
     /// Refuses a warming `model` cannot take, saying why: a range that is empty, not
     /// finite or beyond [`Self::MAX_DEGREES`], a model without a temperature (°C), a humidity
-    /// it does not have or whose unit is not one of [`Self::HUMIDITY_UNITS`].
+    /// it does not have or whose unit is not a vapour density's (kg m^-3) or pressure's (Pa).
     pub fn check(&self, model: &Model) -> Result<(), String> {
         let [lo, hi] = self.degrees;
         if !(lo.is_finite() && hi.is_finite() && lo <= hi) {
@@ -119,7 +116,7 @@ impl Warming {
                 return Err(format!(
                     "`{name}` is in [{}]; a humidity kept at its relative humidity is in [{}]",
                     d.info.unit,
-                    Self::HUMIDITY_UNITS.join("] or [")
+                    HUMIDITIES.map(|(unit, _)| unit).join("] or [")
                 ));
             }
         }
@@ -179,17 +176,18 @@ enum HumidityUnit {
     VapourPressure,
 }
 
+/// The units a humidity kept at its relative humidity may have, and what each measures.
+const HUMIDITIES: [(&str, HumidityUnit); 2] = [
+    ("kg m^-3", HumidityUnit::VapourDensity),
+    ("Pa", HumidityUnit::VapourPressure),
+];
+
 fn humidity_unit(unit: &str) -> Option<HumidityUnit> {
-    match unit
-        .split_whitespace()
-        .collect::<Vec<_>>()
-        .join(" ")
-        .as_str()
-    {
-        "kg m^-3" => Some(HumidityUnit::VapourDensity),
-        "Pa" => Some(HumidityUnit::VapourPressure),
-        _ => None,
-    }
+    let unit = unit.split_whitespace().collect::<Vec<_>>().join(" ");
+    HUMIDITIES
+        .iter()
+        .find(|(name, _)| *name == unit)
+        .map(|&(_, measure)| measure)
 }
 
 /// The model's temperature disturbances (unit °C), in its order.
