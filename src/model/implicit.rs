@@ -19,7 +19,8 @@
 //!   steps too, in a simulation's workspace: RADAU5's rule), from the last sub-step's
 //!   collocation polynomial continued; where it contracts slowly, `J` is taken afresh at
 //!   the start, and at every stage where that barely contracts (in a simulation) or slows
-//!   (for derivatives), anew each time; a step that still fails is
+//!   (for derivatives), anew each time (a simulation's three-stage exact matrix factored
+//!   by blocks, [`super::block_newton`]; derivatives' whole); a step that still fails is
 //!   split into up to 64 pieces in a simulation (an optimiser's values stay NaN there, as its
 //!   derivatives would). A sub-step that converged at a rate of contraction above 0.2
 //!   has the next one take `J` afresh at its start, from its extrapolated stages. In a
@@ -40,6 +41,7 @@
 
 use nalgebra::{DMatrix, DVector, Dyn, LU};
 
+use super::block_newton::BlockNewton;
 use super::dense_lu::DenseLu;
 use super::eigen_split::{EigenSplit, SplitMatrix};
 use super::sparse_lu::SparseOrder;
@@ -227,6 +229,15 @@ fn sparse_order(jacobian: &Derivatives, nx: usize) -> Option<Arc<SparseOrder>> {
     (2 * order.off_diagonal_entries() + nx <= nx * nx / 2).then(|| Arc::new(order))
 }
 
+/// `A⁻¹` of a three-stage tableau, row-major; `None` for other tableaus.
+fn three_stage_inverse(tableau: &Tableau) -> Option<[f64; 9]> {
+    if tableau.stages != 3 {
+        return None;
+    }
+    let inverse = DMatrix::from_row_slice(3, 3, &tableau.a).try_inverse()?;
+    Some(std::array::from_fn(|k| inverse[(k / 3, k % 3)]))
+}
+
 /// `η = θ / (1 − θ)` of a rate of contraction `θ < 1`.
 fn contraction_eta(theta: f64) -> f64 {
     theta / (1.0 - theta)
@@ -287,6 +298,9 @@ enum NewtonMatrix {
     Dense(LU<f64, Dyn, Dyn>),
     /// `I − h A ⊗ J`, one `J` for every stage, split by the eigenvalues of `A⁻¹`.
     Split(SplitMatrix),
+    /// `I − h (A ⊗ I) diag(J₁, J₂, J₃)` of a three-stage method, factored by blocks (a
+    /// simulation's exact Newton matrix).
+    Blocks(Box<BlockNewton>),
 }
 
 /// An implicit step, compiled: what [`super::Plant`] holds for an implicit integrator.
@@ -295,6 +309,9 @@ pub(crate) struct ImplicitStep {
     tableau: Tableau,
     /// `A⁻¹ = T Λ T⁻¹`, where the tableau has such a split (RADAU3, RADAU5).
     split: Option<EigenSplit>,
+    /// `A⁻¹`, row-major, of a three-stage tableau (RADAU5, SDIRK3): a simulation's exact
+    /// Newton matrix is factored by blocks ([`BlockNewton`]).
+    three_stage_inverse: Option<[f64; 9]>,
     /// `L_j(1 + c_i)`, `s × s`: the Lagrange basis on the nodes `0, c₁ … c_s` (the node 0
     /// carries the value 0 and drops out) at the next sub-step's stage times.
     extrapolation: Vec<f64>,
@@ -402,6 +419,7 @@ impl ImplicitStep {
             combined: graph.compile(&all, n_in),
             extrapolation: extrapolation(&tableau),
             split: EigenSplit::of(&tableau.a, tableau.stages),
+            three_stage_inverse: three_stage_inverse(&tableau),
             tableau,
             layout,
             w_offset,
@@ -471,9 +489,16 @@ impl ImplicitStep {
             let jac = ws.rhs_jacobian.jacobian(&self.rhs, &ws.rhs_inputs);
             jacobians.push(jac.jacobian.clone());
         }
-        match (&self.split, jacobians.as_slice()) {
-            (Some(split), [jacobian]) => {
+        match (&self.split, jacobians.as_slice(), self.three_stage_inverse) {
+            (Some(split), [jacobian], _) => {
                 NewtonMatrix::Split(split.factor(jacobian, nx, h, self.sparse_order.as_ref()))
+            }
+            // Derivatives keep the whole matrix, so that MPC's numbers stay as they were.
+            (_, [j1, j2, j3], Some(alpha)) if ws.purpose == Purpose::Simulation => {
+                match BlockNewton::factor(alpha, [j1, j2, j3], nx, h) {
+                    Some(blocks) => NewtonMatrix::Blocks(Box::new(blocks)),
+                    None => NewtonMatrix::Dense(self.dense_newton_matrix(&jacobians, h).lu()),
+                }
             }
             _ => NewtonMatrix::Dense(self.dense_newton_matrix(&jacobians, h).lu()),
         }
@@ -727,6 +752,10 @@ impl ImplicitStep {
                 let solved = lu.solve_mut(&mut v);
                 r.copy_from_slice(v.as_slice());
                 solved
+            }
+            (NewtonMatrix::Blocks(m), _) => {
+                m.solve_mut(r);
+                true
             }
             (NewtonMatrix::Split(_), None) => false,
         }

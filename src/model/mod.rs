@@ -9,6 +9,7 @@
 //! Architecture invariant: `model` knows no solver and no controller. It only reads the
 //! language's [`Model`] and the graph.
 
+mod block_newton;
 mod builder;
 mod dense_lu;
 mod eigen_split;
