@@ -53,8 +53,7 @@ impl BlockNewton {
             m
         };
         let k11 = DenseLu::factor(diagonal(0), n)?;
-        let mut scratch = vec![0.0; n];
-        let x = inverse(&k11, n, &mut scratch);
+        let x = inverse(&k11, n);
         // K'_ij = K_ij − α_i1 α_1j X for i, j in {2, 3}.
         let eliminated = |i: usize, j: usize, mut m: Vec<f64>| -> Vec<f64> {
             let c = a(i, 0) * a(0, j);
@@ -74,18 +73,9 @@ impl BlockNewton {
         let k23 = eliminated(1, 2, scaled_identity(a(1, 2)));
         let k32 = eliminated(2, 1, scaled_identity(a(2, 1)));
         let mut s = eliminated(2, 2, diagonal(2));
-        // Y = K'₂₂⁻¹ K'₂₃, column by column.
-        let mut y = vec![0.0; n * n];
-        let mut column = vec![0.0; n];
-        for c in 0..n {
-            for r in 0..n {
-                column[r] = k23[r * n + c];
-            }
-            k22.solve(&mut column, &mut scratch);
-            for r in 0..n {
-                y[r * n + c] = column[r];
-            }
-        }
+        // Y = K'₂₂⁻¹ K'₂₃.
+        let mut y = k23;
+        k22.solve_rows(&mut y, n);
         // S = K'₃₃ − K'₃₂ Y.
         for r in 0..n {
             let row = &k32[r * n..(r + 1) * n];
@@ -107,7 +97,7 @@ impl BlockNewton {
             y,
             k32,
             s,
-            scratch,
+            scratch: vec![0.0; n],
             b: vec![0.0; 3 * n],
         })
     }
@@ -161,17 +151,12 @@ impl BlockNewton {
 }
 
 /// `M⁻¹` of a factored `n × n` matrix, row-major.
-fn inverse(lu: &DenseLu<f64>, n: usize, scratch: &mut [f64]) -> Vec<f64> {
+fn inverse(lu: &DenseLu<f64>, n: usize) -> Vec<f64> {
     let mut inverse = vec![0.0; n * n];
-    let mut column = vec![0.0; n];
-    for c in 0..n {
-        column.fill(0.0);
-        column[c] = 1.0;
-        lu.solve(&mut column, scratch);
-        for r in 0..n {
-            inverse[r * n + c] = column[r];
-        }
+    for k in 0..n {
+        inverse[k * n + k] = 1.0;
     }
+    lu.solve_rows(&mut inverse, n);
     inverse
 }
 

@@ -110,6 +110,44 @@ impl<T: Scalar> DenseLu<T> {
         rhs.copy_from_slice(&scratch[..n]);
     }
 
+    /// Solves `M X = B` for `k` right-hand sides at once: `B` row-major `n × k` in `rhs` on
+    /// entry, `X` on return. Each elimination step is a multiple of one row of `B` taken
+    /// from another, over contiguous memory (where `n` single solves would read `B` by
+    /// columns).
+    pub fn solve_rows(&self, rhs: &mut [T], k: usize) {
+        let n = self.n;
+        debug_assert_eq!(rhs.len(), n * k);
+        let mut permuted = vec![T::ZERO; n * k];
+        for (row, &r) in permuted.chunks_exact_mut(k).zip(&self.rows) {
+            row.copy_from_slice(&rhs[r * k..(r + 1) * k]);
+        }
+        for j in 0..n {
+            let (done, rest) = permuted.split_at_mut((j + 1) * k);
+            let pivot = &done[j * k..];
+            for (i, row) in rest.chunks_exact_mut(k).enumerate() {
+                let l = self.columns[j * n + j + 1 + i];
+                for (x, &p) in row.iter_mut().zip(pivot) {
+                    *x = *x - l * p;
+                }
+            }
+        }
+        for j in (0..n).rev() {
+            let (before, from) = permuted.split_at_mut(j * k);
+            let pivot = &mut from[..k];
+            let inverse = self.inverse_diagonal[j];
+            for p in pivot.iter_mut() {
+                *p = *p * inverse;
+            }
+            for (i, row) in before.chunks_exact_mut(k).enumerate() {
+                let u = self.columns[j * n + i];
+                for (x, &p) in row.iter_mut().zip(pivot.iter()) {
+                    *x = *x - u * p;
+                }
+            }
+        }
+        rhs.copy_from_slice(&permuted);
+    }
+
     /// Solves `Mᵀ x = b` with the same factors (`Mᵀ = Uᵀ Lᵀ P`): `b` in `rhs` on entry, `x`
     /// on return; `scratch` holds `n` values. Each unknown is a dot product with a column
     /// of the factors, contiguous in memory.
@@ -223,6 +261,33 @@ mod tests {
                     (g - e).abs() <= 1e-10 * (1.0 + e.abs()),
                     "n = {n}: {g} vs {e}"
                 );
+            }
+        }
+    }
+
+    /// Many right-hand sides at once give what one solve each gives, to round-off.
+    #[test]
+    fn row_solves_agree_with_single_solves() {
+        for (n, k) in [(1, 1), (5, 3), (28, 28)] {
+            let m = matrix(n, n + 1);
+            let lu = DenseLu::factor(m, n).unwrap();
+            let b: Vec<f64> = (0..n * k).map(|i| (i as f64 * 0.37).sin()).collect();
+            let mut all = b.clone();
+            lu.solve_rows(&mut all, k);
+            let (mut column, mut scratch) = (vec![0.0; n], vec![0.0; n]);
+            for c in 0..k {
+                for r in 0..n {
+                    column[r] = b[r * k + c];
+                }
+                lu.solve(&mut column, &mut scratch);
+                for r in 0..n {
+                    let g = all[r * k + c];
+                    assert!(
+                        (g - column[r]).abs() <= 1e-12 * (1.0 + column[r].abs()),
+                        "{g} vs {}",
+                        column[r]
+                    );
+                }
             }
         }
     }
