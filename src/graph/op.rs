@@ -227,7 +227,9 @@ impl Op {
     }
 
     /// The value on plain floats.
-    #[inline]
+    // Always: inlined into `apply_points`' general arm, so that the tape interpreter
+    // (`Tape::eval_points`) never calls out of line per point (docs/benchmarks.md).
+    #[inline(always)]
     pub fn apply_f64(self, a: f64, b: f64, c: f64) -> f64 {
         self.apply(a, b, c)
     }
@@ -251,7 +253,15 @@ impl Op {
                 let exponent = f64::from_bits(bits);
                 a.map(|x| x.powf(exponent))
             }
-            _ => std::array::from_fn(|l| self.apply_f64(a[l], b[l], c[l])),
+            // A loop, not `array::from_fn`: its closure was left out of line in some builds
+            // (the Python wheel), a call per point (docs/benchmarks.md).
+            _ => {
+                let mut out = [0.0; N];
+                for (l, out) in out.iter_mut().enumerate() {
+                    *out = self.apply_f64(a[l], b[l], c[l]);
+                }
+                out
+            }
         }
     }
 
