@@ -138,13 +138,13 @@ impl BlockNewton {
             let y = &self.y[row * n..(row + 1) * n];
             *b2 -= y.iter().zip(b3.iter()).map(|(y, d)| y * d).sum::<f64>();
         }
+        let w = &mut self.scratch;
+        for ((w, d2), d3) in w.iter_mut().zip(b2.iter()).zip(b3.iter()) {
+            *w = a(0, 1) * d2 + a(0, 2) * d3;
+        }
         for (row, b1) in b1.iter_mut().enumerate() {
             let x = &self.x[row * n..(row + 1) * n];
-            *b1 -= x
-                .iter()
-                .zip(b2.iter().zip(b3.iter()))
-                .map(|(x, (d2, d3))| x * (a(0, 1) * d2 + a(0, 2) * d3))
-                .sum::<f64>();
+            *b1 -= x.iter().zip(w.iter()).map(|(x, w)| x * w).sum::<f64>();
         }
         r.copy_from_slice(b);
     }
