@@ -489,18 +489,25 @@ impl ImplicitStep {
             let jac = ws.rhs_jacobian.jacobian(&self.rhs, &ws.rhs_inputs);
             jacobians.push(jac.jacobian.clone());
         }
-        match (&self.split, jacobians.as_slice(), self.three_stage_inverse) {
+        let blocks = match (&self.split, jacobians.as_slice(), self.three_stage_inverse) {
             (Some(split), [jacobian], _) => {
-                NewtonMatrix::Split(split.factor(jacobian, nx, h, self.sparse_order.as_ref()))
+                return NewtonMatrix::Split(split.factor(
+                    jacobian,
+                    nx,
+                    h,
+                    self.sparse_order.as_ref(),
+                ));
             }
             // Derivatives keep the whole matrix, so that MPC's numbers stay as they were.
             (_, [j1, j2, j3], Some(alpha)) if ws.purpose == Purpose::Simulation => {
-                match BlockNewton::factor(alpha, [j1, j2, j3], nx, h) {
-                    Some(blocks) => NewtonMatrix::Blocks(Box::new(blocks)),
-                    None => NewtonMatrix::Dense(self.dense_newton_matrix(&jacobians, h).lu()),
-                }
+                BlockNewton::factor(alpha, [j1, j2, j3], nx, h)
             }
-            _ => NewtonMatrix::Dense(self.dense_newton_matrix(&jacobians, h).lu()),
+            _ => None,
+        };
+        match blocks {
+            Some(blocks) => NewtonMatrix::Blocks(Box::new(blocks)),
+            // Other methods, derivatives, and a singular block: the whole matrix.
+            None => NewtonMatrix::Dense(self.dense_newton_matrix(&jacobians, h).lu()),
         }
     }
 

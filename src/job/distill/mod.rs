@@ -47,7 +47,7 @@ use crate::rl::sac::net::Net;
 use crate::rl::RlError;
 use crate::sim::season::{derived_seed, UncertaintyDraw};
 pub use crate::sim::weather::Warming;
-use crate::sim::weather::Weather;
+use crate::sim::weather::{parse_range, Weather};
 use serde::{Deserialize, Serialize};
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -110,18 +110,8 @@ impl std::str::FromStr for StartRows {
 
     /// `FIRST..LAST`, two row numbers (`0..5000`).
     fn from_str(text: &str) -> Result<Self, String> {
-        let (first, last) = text
-            .split_once("..")
-            .ok_or_else(|| format!("`{text}` is not FIRST..LAST (e.g. 0..5000)"))?;
-        let row = |s: &str| {
-            s.trim()
-                .parse::<usize>()
-                .map_err(|e| format!("`{s}` in `{text}` is not a row number: {e}"))
-        };
-        Ok(StartRows {
-            first: row(first)?,
-            last: row(last)?,
-        })
+        let (first, last) = parse_range(text, "FIRST..LAST (e.g. 0..5000)", "a row number")?;
+        Ok(StartRows { first, last })
     }
 }
 

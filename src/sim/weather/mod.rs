@@ -50,7 +50,7 @@ mod warming;
 pub use builtin::builtin_season;
 pub use csv_columns::load_csv;
 pub use knmi::load_knmi;
-pub use warming::Warming;
+pub use warming::{parse_range, Warming};
 
 use crate::lang::model::CLOCK_COLUMN;
 use std::path::{Path, PathBuf};

@@ -49,19 +49,33 @@ impl std::str::FromStr for Warming {
 
     /// `LO..HI`, degrees (`0..8`), no humidities kept.
     fn from_str(text: &str) -> Result<Self, String> {
-        let (lo, hi) = text
-            .split_once("..")
-            .ok_or_else(|| format!("`{text}` is not LO..HI in degrees (e.g. 0..8)"))?;
-        let degrees = |s: &str| {
-            s.trim()
-                .parse::<f64>()
-                .map_err(|e| format!("`{s}` in `{text}` is not a number of degrees: {e}"))
-        };
+        let (lo, hi) = parse_range(text, "LO..HI in degrees (e.g. 0..8)", "a number of degrees")?;
         Ok(Warming {
-            degrees: [degrees(lo)?, degrees(hi)?],
+            degrees: [lo, hi],
             keep_humidity: Vec::new(),
         })
     }
+}
+
+/// The two ends of `A..B` in `text`, each parsed as a `T`; the errors say the form
+/// expected (`form`, e.g. `FIRST..LAST (e.g. 0..5000)`) and what an end is (`what`).
+pub fn parse_range<T: std::str::FromStr>(
+    text: &str,
+    form: &str,
+    what: &str,
+) -> Result<(T, T), String>
+where
+    T::Err: std::fmt::Display,
+{
+    let (first, last) = text
+        .split_once("..")
+        .ok_or_else(|| format!("`{text}` is not {form}"))?;
+    let end = |s: &str| {
+        s.trim()
+            .parse::<T>()
+            .map_err(|e| format!("`{s}` in `{text}` is not {what}: {e}"))
+    };
+    Ok((end(first)?, end(last)?))
 }
 
 impl Warming {
