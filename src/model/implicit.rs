@@ -20,9 +20,11 @@
 //!   collocation polynomial continued; where it contracts slowly, `J` is taken afresh at
 //!   the start, and at every stage where that barely contracts (in a simulation) or slows
 //!   (for derivatives), anew each time (a simulation's three-stage exact matrix factored
-//!   by blocks, [`super::block_newton`]; derivatives' whole); a step that still fails is
-//!   split into up to 64 pieces in a simulation (an optimiser's values stay NaN there, as its
-//!   derivatives would). A sub-step that converged at a rate of contraction above 0.2
+//!   by blocks, [`super::block_newton`]; derivatives' whole); in a simulation, an exact
+//!   iteration whose corrections grow twice in a row gives up, and a sub-step that fails
+//!   is solved in two pieces, four from a piece that fails, … up to 64, and the rest of
+//!   the step in as many (an optimiser's values stay NaN there, as its derivatives
+//!   would). A sub-step that converged at a rate of contraction above 0.2
 //!   has the next one take `J` afresh at its start, from its extrapolated stages. In a
 //!   simulation, converged when the error left, estimated from the rate of contraction
 //!   (`η ‖Δ‖`, Hairer & Wanner IV.8), is below 1e-5 scaled; for derivatives, at a scaled
@@ -106,7 +108,20 @@ impl Purpose {
             Purpose::Derivatives => theta > SLOW_CONTRACTION,
         }
     }
+
+    /// Whether an exact Newton iteration whose last `growing` corrections each grew should
+    /// give up: a simulation solves the sub-step in halves instead; derivatives, which
+    /// cannot split, go on to the iteration limit (so that MPC's numbers stay as they were).
+    fn gives_up(self, growing: usize) -> bool {
+        self == Purpose::Simulation && growing >= DIVERGING_CORRECTIONS
+    }
 }
+/// Corrections in a row, each larger than the last, after which a simulation's exact Newton
+/// iteration gives up on its sub-step, which is then solved in pieces
+/// ([`ImplicitStep::solve_pieces`]): on GreenLight such an iteration went on growing for
+/// its 60 iterations, each with the exact matrix afresh (`docs/benchmarks.md`, "Giving
+/// up on a diverging sub-step").
+const DIVERGING_CORRECTIONS: usize = 2;
 /// A correction this small that no longer shrinks is round-off: converged as well.
 const ROUND_OFF_FLOOR: f64 = 1e-9;
 /// The contraction above which a reused matrix gives up, and, for derivatives, a fresh one
@@ -120,7 +135,8 @@ const SIMULATION_SLOW_CONTRACTION: f64 = 0.95;
 const REFRESH_CONTRACTION: f64 = 0.2;
 /// The stages whose `f` one evaluation of the tape gives (every stage of RADAU5 and SDIRK3).
 const STAGE_POINTS: usize = 3;
-/// The most pieces a failed step is split into before it is declared failed.
+/// The most pieces a failed sub-step is split into (by halves) before the step is
+/// declared failed.
 const MAX_SPLIT: usize = 64;
 
 /// The Butcher tableau of a stiffly accurate implicit method.
@@ -628,6 +644,8 @@ impl ImplicitStep {
         let mut previous = f64::INFINITY;
         let mut theta = 0.0;
         let mut eta = first_eta(ws.eta);
+        // Corrections in a row that grew since the iteration turned to exact Newton.
+        let mut growing = None;
         self.set_stage_base(ws, base);
         for iteration in 0..MAX_NEWTON_ITERATIONS {
             self.stage_slopes(ws, base, t0, h);
@@ -682,6 +700,12 @@ impl ImplicitStep {
             }
             // 0 at the first iteration, where `previous` is infinite.
             let contraction = size / previous;
+            if let Some(grown) = growing.as_mut() {
+                *grown = if contraction > 1.0 { *grown + 1 } else { 0 };
+                if ws.purpose.gives_up(*grown) {
+                    return Err(NewtonFailure);
+                }
+            }
             let left = MAX_NEWTON_ITERATIONS - iteration - 1;
             let slow = if reused {
                 contraction > SLOW_CONTRACTION
@@ -695,6 +719,7 @@ impl ImplicitStep {
                 let points: Vec<(Vec<f64>, f64)> =
                     (0..s).map(|i| self.stage_point(ws, i, t0, h)).collect();
                 lu = self.newton_matrix(ws, base, &points, h);
+                growing.get_or_insert(0);
             }
             previous = size;
         }
@@ -769,7 +794,17 @@ impl ImplicitStep {
     }
 
     /// Solves the stage equations of every sub-step from the base point `(x, u, d, p)`;
-    /// the stage values are left in the workspace.
+    /// the stage values are left in the workspace. In a simulation, a sub-step whose
+    /// Newton iteration fails is solved in pieces ([`Self::solve_pieces`]), and so is the
+    /// rest of the step; the stages in `W` of a sub-step solved in pieces all hold the
+    /// state it ends in (the step's outputs read only the last stage of `W`, `x⁺`, and the
+    /// next sub-step starts from it).
+    ///
+    /// Only a simulation splits: an optimiser's values are those its derivatives (which
+    /// need the model's own sub-steps) can follow, so a point they cannot solve has no value
+    /// either and the line search steps back from it. (With the fallback, such a point had
+    /// a value and NaN derivatives: the interior point stopped with `invalid_number` at the
+    /// GreenLight season's first steps.)
     pub fn solve(&self, ws: &mut ImplicitWorkspace, base: &[f64]) -> Result<(), NewtonFailure> {
         let nx = self.layout.nx;
         let sn = self.tableau.stages * nx;
@@ -778,44 +813,63 @@ impl ImplicitStep {
         if ws.purpose == Purpose::Derivatives {
             ws.newton = None;
         }
+        let mut pieces = 1;
         for sub in 0..self.substeps {
-            self.solve_substep(ws, base, sub as f64 * self.h, self.h)?;
-            for r in 0..sn {
-                ws.w[sub * sn + r] = ws.start[r % nx] + ws.increments[r];
+            let t0 = sub as f64 * self.h;
+            let stages = sub * sn..(sub + 1) * sn;
+            if pieces == 1 {
+                match self.solve_substep(ws, base, t0, self.h) {
+                    Ok(()) => {
+                        for (r, w) in ws.w[stages.clone()].iter_mut().enumerate() {
+                            *w = ws.start[r % nx] + ws.increments[r];
+                        }
+                        ws.start.copy_from_slice(&ws.w[stages.end - nx..stages.end]);
+                        continue;
+                    }
+                    Err(failure) if ws.purpose == Purpose::Derivatives => return Err(failure),
+                    Err(_) => pieces = 2,
+                }
             }
-            let last = sub * sn + sn - nx;
-            ws.start.copy_from_slice(&ws.w[last..last + nx]);
+            pieces = self.solve_pieces(ws, base, t0, pieces)?;
+            for (r, w) in ws.w[stages].iter_mut().enumerate() {
+                *w = ws.start[r % nx];
+            }
         }
         Ok(())
     }
 
-    /// Where the model's own sub-steps fail (a switch inside the step, a stage the Newton
-    /// iteration cannot reach from the start), the same method over 2, 4, … up to
-    /// [`MAX_SPLIT`] times as many sub-steps; `x⁺` is left in the last stage of `W`, the only
-    /// part of `W` the step's outputs read.
-    fn solve_split(&self, ws: &mut ImplicitWorkspace, base: &[f64]) -> Result<(), NewtonFailure> {
-        let nx = self.layout.nx;
-        let mut pieces = 2;
-        while pieces <= MAX_SPLIT {
-            let n = self.substeps * pieces;
+    /// The sub-step from `ws.start` at `t0` in `pieces` equal pieces, twice as many from
+    /// any piece whose Newton iteration fails on, up to [`MAX_SPLIT`]; `ws.start` is left
+    /// at the state the sub-step ends in. Returns the pieces it ended with, which the rest
+    /// of the step keeps: on GreenLight, where one sub-step of a step fails, its others
+    /// mostly fail as well (`docs/benchmarks.md`, "Giving up on a diverging sub-step").
+    fn solve_pieces(
+        &self,
+        ws: &mut ImplicitWorkspace,
+        base: &[f64],
+        t0: f64,
+        mut pieces: usize,
+    ) -> Result<usize, NewtonFailure> {
+        let last = (self.tableau.stages - 1) * self.layout.nx;
+        let mut piece = 0;
+        while piece < pieces {
             let h = self.h / pieces as f64;
-            ws.start.copy_from_slice(&base[..nx]);
-            let solved = (0..n).try_for_each(|sub| {
-                self.solve_substep(ws, base, sub as f64 * h, h)?;
-                let last = (self.tableau.stages - 1) * nx;
-                for k in 0..nx {
-                    ws.start[k] += ws.increments[last + k];
+            if self
+                .solve_substep(ws, base, t0 + piece as f64 * h, h)
+                .is_ok()
+            {
+                for (x, dx) in ws.start.iter_mut().zip(&ws.increments[last..]) {
+                    *x += dx;
                 }
-                Ok::<(), NewtonFailure>(())
-            });
-            if solved.is_ok() {
-                let n_w = ws.w.len();
-                ws.w[n_w - nx..].copy_from_slice(&ws.start);
-                return Ok(());
+                piece += 1;
+            } else if pieces < MAX_SPLIT {
+                pieces *= 2;
+                piece *= 2;
+            } else {
+                return Err(NewtonFailure);
             }
-            pieces *= 2;
         }
-        Err(NewtonFailure)
+        Ok(pieces)
     }
 
     /// Copies `(z, 0, W)` into the post/combined tapes' inputs.
@@ -827,15 +881,8 @@ impl ImplicitStep {
     }
 
     /// One step: `(x⁺, stage terms, y(x⁺))` into `outputs`, all NaN if Newton failed.
-    ///
-    /// Only a simulation falls back on split sub-steps: an optimiser's values are those its
-    /// derivatives (which need the model's own sub-steps) can follow, so a point they
-    /// cannot solve has no value either and the line search steps back from it. (With the
-    /// fallback, such a point had a value and NaN derivatives: the interior point stopped
-    /// with `invalid_number` at the GreenLight season's first steps.)
     pub fn eval(&self, ws: &mut ImplicitWorkspace, base: &[f64], outputs: &mut [f64]) {
-        let may_split = ws.purpose == Purpose::Simulation;
-        if self.solve(ws, base).is_err() && (!may_split || self.solve_split(ws, base).is_err()) {
+        if self.solve(ws, base).is_err() {
             outputs.fill(f64::NAN);
             return;
         }
