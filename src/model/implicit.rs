@@ -110,7 +110,7 @@ impl Purpose {
     }
 
     /// Whether an exact Newton iteration whose last `growing` corrections each grew should
-    /// give up: a simulation solves the sub-step in halves instead; derivatives, which
+    /// give up: a simulation solves the sub-step in pieces instead; derivatives, which
     /// cannot split, go on to the iteration limit (so that MPC's numbers stay as they were).
     fn gives_up(self, growing: usize) -> bool {
         self == Purpose::Simulation && growing >= DIVERGING_CORRECTIONS
@@ -135,7 +135,7 @@ const SIMULATION_SLOW_CONTRACTION: f64 = 0.95;
 const REFRESH_CONTRACTION: f64 = 0.2;
 /// The stages whose `f` one evaluation of the tape gives (every stage of RADAU5 and SDIRK3).
 const STAGE_POINTS: usize = 3;
-/// The most pieces a failed sub-step is split into (by halves) before the step is
+/// The most pieces a failed sub-step is split into (by halving) before the step is
 /// declared failed.
 const MAX_SPLIT: usize = 64;
 
