@@ -350,7 +350,8 @@ fn failure_without_a_plan_applies_the_guides_input_within_the_limits() {
         ),
         (None, vec![0.0, 0.0, 50.0], "hold_input"),
     ] {
-        let failing = vec![Some(SolveStatus::NumericalError); 4];
+        // Every solve fails: over the horizon, and over 2 and 1 steps.
+        let failing = vec![Some(SolveStatus::NumericalError); 8];
         let (plant, mpc) = setup(failing);
         let mut mpc = mpc.with_guidance(Box::new(Recording {
             input: offered,
@@ -361,6 +362,39 @@ fn failure_without_a_plan_applies_the_guides_input_within_the_limits() {
         assert_eq!(d.record.status, Some(SolveStatus::NumericalError));
         assert_eq!(d.input, applied, "{path}");
     }
+}
+
+/// Where RL-guided MPC fails over the whole horizon, plain MPC over half of it decides the
+/// step (`shorter_horizon`), before any plan or guide input: on the GreenLight tomato
+/// those had decided 34 of RL-MPC's first 1 152 steps.
+#[test]
+fn failed_guided_solves_give_way_to_a_shorter_horizon() {
+    let forecast = constant_weather();
+    let guided = |script: Vec<Option<SolveStatus>>| {
+        let (plant, mpc, caps) = setup_recording(script);
+        let mpc = mpc.with_guidance(Box::new(Recording {
+            input: Some(vec![0.5, 2.0, 120.0]),
+            forecasts: Arc::default(),
+        }));
+        (plant, mpc, caps)
+    };
+    // How many solves the step takes where all fail: those over the horizon, then over 2
+    // and over 1 step.
+    let failed = Some(SolveStatus::MaxIterations);
+    let (plant, mut mpc, caps) = guided(vec![failed; 20]);
+    first_decision(&plant, &mut mpc, &forecast).unwrap();
+    let over_the_horizon = caps.borrow().len() - 2;
+    // Those over the horizon fail, the one over 2 steps succeeds.
+    let (plant, mut mpc, caps) = guided(vec![failed; over_the_horizon]);
+    let d = first_decision(&plant, &mut mpc, &forecast).unwrap();
+    assert_eq!(d.record.fallback_name(), Some("shorter_horizon"));
+    assert_eq!(d.record.status, Some(SolveStatus::Optimal));
+    assert_eq!(caps.borrow().len(), over_the_horizon + 1);
+    assert_eq!(
+        caps.borrow().last(),
+        Some(&Some(LAST_RESORT_COLD_ITERATIONS))
+    );
+    assert!(mpc.last_solution().is_none(), "no plan is kept");
 }
 
 /// After a successful step 0 on a 4-step horizon, failing steps apply the plan's inputs 1,

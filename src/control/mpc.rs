@@ -27,13 +27,16 @@
 //!    four). Where this fallback exists, the cold starts of fallback 1 are capped at
 //!    [`LAST_RESORT_COLD_ITERATIONS`] iterations, so a step does not spend the solver's
 //!    whole budget twice on the coarse problem before it;
-//! 3. `shorter_horizon` (plain MPC): solve cold over half the horizon, then a quarter, …
-//!    down to one step (each capped at [`LAST_RESORT_COLD_ITERATIONS`]), and apply the
-//!    first input of the first that succeeds: on the GreenLight tomato at 1 h, a night
-//!    state where the screen closes ran out of iterations over 12 steps and solved over 6
-//!    (`docs/benchmarks.md`, "The last resort over shorter horizons"). Neither that plan
-//!    nor an older one is kept: the next step starts cold over the whole horizon, and
-//!    should it fail, holds the input;
+//! 3. `shorter_horizon`: solve plain MPC's problem cold over half the horizon, then a
+//!    quarter, … down to one step (each capped at [`LAST_RESORT_COLD_ITERATIONS`]), and
+//!    apply the first input of the first that succeeds: on the GreenLight tomato at 1 h, a
+//!    night state where the screen closes ran out of iterations over 12 steps and solved
+//!    over 6 (`docs/benchmarks.md`, "The last resort over shorter horizons"). Under
+//!    guidance too, without the terminal cost and region: RL-guided MPC on the tomato
+//!    otherwise applied its shifted plan or the guide's input at 34 of its first 1 152
+//!    steps (`docs/results.md`, "A guide distilled from MPC"). Neither that plan nor an
+//!    older one is kept: the next step starts cold over the whole horizon, and should it
+//!    fail, holds the input;
 //! 4. `shifted_plan`: apply the input the last successful plan holds for this step (its
 //!    second where it was computed at the step before);
 //! 5. `guide_input` (RL-guided MPC only): the guide's own input;
@@ -480,20 +483,17 @@ impl Mpc {
         Ok(Some(self.solver.solve(ocp, Start::cold(&self.start_x))))
     }
 
-    /// Plain MPC's last resort: the step's problem over half the horizon, then a quarter,
-    /// … down to one step (the planning model, its own terminal terms, the same bands),
-    /// each solved cold from the rules' roll-out where every input has a rule, else from
-    /// the held input, capped at [`LAST_RESORT_COLD_ITERATIONS`]. Returns the first
-    /// success and its first input, with the effort of every attempt added to `effort`;
-    /// `None` under guidance (whose own input is its fallback) or where none succeeded.
+    /// The last resort: plain MPC's problem over half the horizon, then a quarter, … down
+    /// to one step (the planning model, its own terminal terms, the same bands; under
+    /// guidance too, without its terminal cost and region), each solved cold from the
+    /// rules' roll-out where every input has a rule, else from the held input, capped at
+    /// [`LAST_RESORT_COLD_ITERATIONS`]. Returns the first success and its first input,
+    /// with the effort of every attempt added to `effort`; `None` where none succeeded.
     fn solve_on_shorter_horizons(
         &mut self,
         observation: &Observation,
         effort: &mut Effort,
     ) -> Result<Option<(Solution, Vec<f64>)>, ControlError> {
-        if self.guidance.is_some() {
-            return Ok(None);
-        }
         let inputs = self.rules_inputs(observation)?;
         let mut start = Vec::new();
         let horizons = halved_horizons(self.ocp.horizon());
