@@ -163,10 +163,10 @@ fn a_step_that_cannot_be_solved_is_not_finite() {
 }
 
 /// In a simulation, a sub-step whose Newton iteration fails is solved in pieces, and so is
-/// the rest of the step: `ẏ = y²` from `y = 1` is `1 / (1 − t)`, 10 at `t = 0.9`. RADAU5's
-/// stage equations over the first of three sub-steps of 0.3 s are not solved by Newton from
-/// the start; an optimiser's step, which cannot split, has no value there, while the
-/// simulated step reaches the solution.
+/// the rest of the step: `ẏ = y²` from `y = 1` is `1 / (1 − t)`, 10 at `t = 0.9`. Newton
+/// does not solve RADAU5's stage equations over all three sub-steps of 0.3 s: an
+/// optimiser's step, which cannot split, has no value there, while the simulated step
+/// reaches the solution.
 #[test]
 fn a_sub_step_newton_cannot_solve_whole_is_solved_in_pieces() {
     let text = "model blowup\nsample 0.9 [s] integrator radau5 substeps 3\nstate y = 1\n\
