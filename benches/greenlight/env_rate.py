@@ -19,16 +19,27 @@ import time
 
 import numpy as np
 
+# The seeds of the reset and of the actions, and the largest move of a smooth action as a
+# fraction of the input's range: `glgym_tolerance.py` steps through the same actions.
+RESET_SEED = 1
+ACTION_SEED = 0
+SMOOTH_SCALE = 0.1
+
+
+def make_gl_gym():
+    """gl-gym's tomato environment, through its registered Gymnasium id."""
+    import gymnasium
+    import gl_gym  # noqa: F401  (registers its environment)
+
+    return gymnasium.make("gl_gym/GreenLightTomato-v0")
+
 
 def make(args):
     if args.package == "ghm":
         import ghm
 
         return ghm.Env(args.model, weather=args.weather, days=60)
-    import gymnasium
-    import gl_gym  # noqa: F401  (registers its environment)
-
-    return gymnasium.make("gl_gym/GreenLightTomato-v0")
+    return make_gl_gym()
 
 
 def main():
@@ -40,10 +51,10 @@ def main():
     p.add_argument("--smooth", action="store_true")
     args = p.parse_args()
     env = make(args)
-    env.reset(seed=1)
-    rng = np.random.default_rng(0)
+    env.reset(seed=RESET_SEED)
+    rng = np.random.default_rng(ACTION_SEED)
     shape = env.action_space.shape
-    scale = 0.1 if args.smooth else 1.0
+    scale = SMOOTH_SCALE if args.smooth else 1.0
     rates = []
     for _ in range(3):
         start = time.perf_counter()

@@ -19,6 +19,8 @@ import time
 
 import numpy as np
 
+from env_rate import ACTION_SEED, RESET_SEED, SMOOTH_SCALE, make_gl_gym
+
 # gl-gym's state order (its `init_state`): the rows compared.
 CO2_AIR, T_AIR, VP_AIR, C_FRUIT = 0, 2, 15, 25
 TEMPERATURES = [2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 17, 18, 19, 20]
@@ -27,8 +29,6 @@ TEMPERATURES = [2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 17, 18, 19, 20]
 def run(tolerance, steps):
     """States after each of `steps` smooth steps with CVODES at `tolerance`, and the rate."""
     import casadi
-    import gymnasium
-    import gl_gym  # noqa: F401  (registers its environment)
 
     plain = casadi.integrator
 
@@ -37,15 +37,15 @@ def run(tolerance, steps):
 
     casadi.integrator = with_tolerance
     try:
-        env = gymnasium.make("gl_gym/GreenLightTomato-v0")
+        env = make_gl_gym()
     finally:
         casadi.integrator = plain
-    env.reset(seed=1)
-    rng = np.random.default_rng(0)
+    env.reset(seed=RESET_SEED)
+    rng = np.random.default_rng(ACTION_SEED)
     states = []
     start = time.perf_counter()
     for _ in range(steps):
-        action = 0.1 * rng.uniform(-1.0, 1.0, size=env.action_space.shape)
+        action = SMOOTH_SCALE * rng.uniform(-1.0, 1.0, size=env.action_space.shape)
         _, _, terminated, truncated, _ = env.step(action)
         states.append(np.array(env.unwrapped.x))
         if terminated or truncated:
