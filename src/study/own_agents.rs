@@ -40,6 +40,10 @@ pub(super) struct Agents {
     trajectories: usize,
     spread: f64,
     epochs: usize,
+    /// Days of each value-fit roll-out (`ghm value --days`); none: the study's season.
+    value_days: Option<f64>,
+    /// The state the value networks read (`ghm value --state`); none: the model's first.
+    state: Option<String>,
 }
 
 impl Default for Agents {
@@ -59,7 +63,38 @@ impl Default for Agents {
             trajectories: value.trajectories,
             spread: value.spread,
             epochs: value.epochs,
+            value_days: None,
+            state: None,
         }
+    }
+}
+
+impl Agents {
+    /// Refuses settings no job could run with, naming the key.
+    pub fn check(&self) -> Result<(), String> {
+        positive_days(self.value_days, "[agents] value_days")
+    }
+}
+
+/// Refuses a length in days that is not a positive number.
+fn positive_days(days: Option<f64>, key: &str) -> Result<(), String> {
+    match days {
+        Some(d) if !(d.is_finite() && d > 0.0) => {
+            Err(format!("{key}: {d} is not a positive number of days"))
+        }
+        _ => Ok(()),
+    }
+}
+
+/// `weather` over `days` days from its start where given, else `weather` itself.
+fn over_days(weather: &WeatherSpec, days: Option<f64>) -> WeatherSpec {
+    match days {
+        Some(days) => WeatherSpec {
+            days: Some(days),
+            steps: None,
+            ..weather.clone()
+        },
+        None => weather.clone(),
     }
 }
 
@@ -82,6 +117,8 @@ pub(super) struct Distilled {
     keep_humidity: Vec<String>,
     /// Rows of forecast the guide observes after the current weather.
     forecast_rows: usize,
+    /// Days of each roll-out (`ghm distill --days`); none: the study's season.
+    days: Option<f64>,
     epochs: usize,
     seed: u64,
     /// The stochastic scenarios' guides are distilled on the perturbed plant (the
@@ -103,6 +140,7 @@ impl Default for Distilled {
             warming: None,
             keep_humidity: Vec::new(),
             forecast_rows: spec.forecast_rows,
+            days: None,
             epochs: spec.fit.epochs,
             seed: spec.seed,
             stochastic: true,
@@ -114,6 +152,7 @@ impl Distilled {
     /// The distillation these options describe, for any model, weather and plant (those
     /// are set per job); `teacher` is the located teacher table's controller, where given.
     pub fn template(&self, teacher: Option<ControllerSpec>) -> Result<DistillSpec, String> {
+        positive_days(self.days, "[distilled] days")?;
         let default = DistillSpec::default();
         let start_rows = self
             .start_rows
@@ -325,12 +364,12 @@ impl<'a> OwnAgents<'a> {
                 jobs.push(job(Work::Train(spec), Vec::new(), folder, "training", kind));
             }
         }
-        if let Some((_, template)) = self.learning.distilled {
+        if let Some((distilled, template)) = self.learning.distilled {
             for kind in kinds_of(GuideChoice::Distilled) {
                 let (stochastic, uncertainty) = plant_for(kind);
                 let spec = DistillSpec {
                     model: model.to_path_buf(),
-                    weather: weather.clone(),
+                    weather: over_days(weather, distilled.days),
                     stochastic,
                     uncertainty,
                     ..template.clone()
@@ -355,12 +394,12 @@ impl<'a> OwnAgents<'a> {
                 .then(|| self.folder(kind, Own::Agent(guide)));
             let spec = ValueSpec {
                 model: model.to_path_buf(),
-                weather: weather.clone(),
+                weather: over_days(weather, value_options.value_days),
                 guide,
                 agent: agent.as_ref().map(|a| self.out.join(a)),
                 trajectories: value_options.trajectories,
                 spread: value_options.spread,
-                state: None,
+                state: value_options.state.clone(),
                 epochs: value_options.epochs,
                 seed: value_options.seed,
                 ..ValueSpec::default()

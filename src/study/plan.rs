@@ -196,6 +196,9 @@ fn plan_file(file: StudyFile, place: &Place, out: &Path, text: &str) -> Result<V
         ));
     }
 
+    if let Some(agents) = &file.agents {
+        agents.check()?;
+    }
     let template = file
         .distilled
         .as_ref()
@@ -561,6 +564,8 @@ mod tests {
             gamma = 0.99
             batch_size = 64
             learning_rate = 1e-3
+            value_days = 10
+            state = "temp_air"
             [[controllers]]
             name = "SAC"
             kind = "policy"
@@ -607,6 +612,13 @@ mod tests {
             Some(Path::new("/out/lettuce/agents/stochastic"))
         );
         assert_eq!(jobs[4].needs, [Path::new("lettuce/agents/stochastic")]);
+        // The value fits roll out over their own days, reading the state named; the
+        // trainings over the study's season.
+        assert_eq!(
+            (value.weather.days, value.state.as_deref()),
+            (Some(10.0), Some("temp_air"))
+        );
+        assert_eq!(train.weather.days, None);
         needs_come_first(&jobs);
         let by_folder = |f: &str| jobs.iter().find(|j| j.folder == Path::new(f)).unwrap();
         let rlmpc = by_folder("lettuce/rl-mpc/1h/stochastic-00");
@@ -643,6 +655,7 @@ mod tests {
             warming = "0..8"
             keep_humidity = ["hum_out"]
             forecast_rows = 12
+            days = 4
             [distilled.teacher]
             kind = "mpc"
             horizon = "2h"
@@ -676,6 +689,10 @@ mod tests {
         };
         assert!(distill.stochastic && distill.uncertainty == 0.05 && distill.iterations == 3);
         assert_eq!(distill.forecast_rows, 12);
+        assert_eq!(
+            (distill.weather.days, distill.weather.steps),
+            (Some(4.0), None)
+        );
         let warming = distill.warming.as_ref().unwrap();
         assert_eq!(
             (warming.degrees, &warming.keep_humidity[..]),
@@ -834,5 +851,21 @@ mod tests {
         assert_eq!(slug("MPC"), "mpc");
         assert_eq!(slug("1.5h"), "1.5h");
         assert_eq!(slug("***"), "controller");
+    }
+
+    /// A roll-out length that is not a positive number of days is refused when the study
+    /// is planned, naming its key.
+    #[test]
+    fn learned_guides_roll_out_over_a_positive_number_of_days() {
+        for (table, key) in [
+            ("[distilled]\ndays = 0", "[distilled] days"),
+            ("[agents]\nvalue_days = -2", "[agents] value_days"),
+        ] {
+            let text = format!(
+                "models = [\"../models/lettuce.ghm\"]\n{table}\n[[controllers]]\nname = \"MPC\"\nkind = \"mpc\"\n"
+            );
+            let error = plan_text(&text).unwrap_err();
+            assert!(error.contains(key), "{error}");
+        }
     }
 }
