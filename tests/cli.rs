@@ -514,6 +514,44 @@ fn value_then_rlmpc(
 }
 
 #[test]
+fn value_saves_the_points_it_fitted_when_asked() {
+    let value = temp_dir("value-data");
+    let v = value.to_str().expect("utf-8 temp path");
+    let (ok, _, err) = ghm(&[
+        "value",
+        "models/lettuce.ghm",
+        "--guide",
+        "expert",
+        "--trajectories",
+        "5",
+        "--epochs",
+        "1",
+        "--days",
+        "1",
+        "--save-data",
+        "--out",
+        v,
+    ]);
+    assert!(ok, "{err}");
+    let data = std::fs::read_to_string(value.join("value_data.csv")).expect("value_data.csv");
+    let summary = summary(&value);
+    let mut lines = data.lines();
+    let state = summary["state"].as_str().expect("the state's name");
+    assert_eq!(lines.next(), Some(format!("{state},step,return").as_str()));
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|v| v.parse().expect("a number")).collect())
+        .collect();
+    assert_eq!(Some(rows.len() as u64), summary["points"].as_u64());
+    assert!(rows
+        .iter()
+        .all(|r| r.len() == 3 && r.iter().all(|v| v.is_finite())));
+    // Steps of a day's season at 30 minutes: 0 to 47.
+    assert!(rows
+        .iter()
+        .all(|r| r[1] >= 0.0 && r[1] < 48.0 && r[1].fract() == 0.0));
+}
+
+#[test]
 fn value_and_rlmpc_run_end_to_end_with_the_expert_guide() {
     let (value, run) = (temp_dir("value"), temp_dir("rlmpc"));
     let out = value_then_rlmpc(

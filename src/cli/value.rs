@@ -43,6 +43,10 @@ pub struct ValueArgs {
     /// Seed of the roll-outs and of the fit.
     #[arg(long, value_name = "S", default_value_t = ValueSpec::default().seed)]
     pub seed: u64,
+    /// Also write the fitted points to value_data.csv in the run folder (the state, the
+    /// step, the return), for fitting them elsewhere.
+    #[arg(long)]
+    pub save_data: bool,
     /// Run folder.
     #[arg(long, value_name = "DIR", default_value = "runs/value")]
     pub out: PathBuf,
@@ -64,6 +68,7 @@ pub fn run(args: &ValueArgs) -> Result<(), CliError> {
         batch_size: args.batch_size,
         learning_rate: args.learning_rate,
         seed: args.seed,
+        save_data: args.save_data,
     };
     let options = JobOptions {
         overwrite: args.overwrite,

@@ -52,6 +52,11 @@ pub struct ValueSpec {
     pub learning_rate: f64,
     /// Seed of the roll-outs and of the fit.
     pub seed: u64,
+    /// Also write the fitted points to `value_data.csv` (the state, the step, the return),
+    /// for fitting them elsewhere (`benches/value_fit_torch.py`). Not recorded when off,
+    /// so that the specs of earlier runs read the same.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub save_data: bool,
 }
 
 impl Default for ValueSpec {
@@ -73,6 +78,7 @@ impl Default for ValueSpec {
             batch_size: fit.batch_size,
             learning_rate: fit.learning_rate,
             seed: 4,
+            save_data: false,
         }
     }
 }
@@ -245,6 +251,14 @@ fn fit_and_write(
             "no roll-out survived; nothing to fit".into(),
         ));
     }
+    if args.save_data {
+        write_data(
+            out,
+            &value_state_name(plant, state_index),
+            &data.features,
+            &data.returns,
+        )?;
+    }
     let margin = 0.1 * (hi - lo).max(1e-9);
     let lower = [lo - margin, 0.0];
     let upper = [hi + margin, steps as f64];
@@ -297,7 +311,7 @@ fn fit_and_write(
         model: plant.model.name.clone(),
         guide: args.guide.name().to_string(),
         state_index,
-        state_name: plant.model.states[state_index].info.name.clone(),
+        state_name: value_state_name(plant, state_index),
         function,
         train_loss: last.train,
         validation_loss: last.validation,
@@ -347,6 +361,24 @@ fn fit_and_write(
         out.display()
     );
     Ok(())
+}
+
+/// The name of the state the value function reads.
+fn value_state_name(plant: &Plant, state_index: usize) -> String {
+    plant.model.states[state_index].info.name.clone()
+}
+
+/// `value_data.csv`: one row a point, the state `state` reads, the step and the return.
+fn write_data(dir: &Path, state: &str, features: &[f64], returns: &[f64]) -> Result<(), JobError> {
+    use std::io::Write;
+    write_atomically(&dir.join("value_data.csv"), |path| {
+        let mut file = std::io::BufWriter::new(std::fs::File::create(path)?);
+        writeln!(file, "{state},step,return")?;
+        for (point, r) in features.chunks_exact(2).zip(returns) {
+            writeln!(file, "{},{},{r}", point[0], point[1])?;
+        }
+        file.flush()
+    })
 }
 
 fn write_curve(dir: &Path, curve: &[EpochLoss]) -> Result<(), JobError> {

@@ -195,6 +195,11 @@ impl Totals {
 }
 
 /// `v` moved inside `[lo, hi]` by IPOPT's bound push with fraction `kappa`.
+///
+/// A `v` that is not a number (a start whose states could not be simulated) lands at the
+/// lower bound's push, or at the upper's where only that is finite: a finite start far
+/// from the dynamics, which the solve may still recover from (RL-guided MPC's warm
+/// starts on the GreenLight tomato, `docs/results.md`).
 pub(super) fn pushed(v: f64, lo: f64, hi: f64, kappa: f64) -> f64 {
     // The push from a bound: relative to the bound's size, at most `kappa` of the range
     // (an infinite range, one-sided bounds, leaves the first).
@@ -252,4 +257,19 @@ pub(super) fn max_dual_step(z: &[f64], dz: &[f64], tau: f64) -> f64 {
             a
         }
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::pushed;
+
+    #[test]
+    fn a_value_that_is_not_a_number_lands_at_a_bounds_push() {
+        assert_eq!(pushed(f64::NAN, 0.0, 10.0, 1e-2), 1e-2);
+        assert_eq!(pushed(f64::NAN, f64::NEG_INFINITY, 10.0, 1e-2), 9.9);
+        assert!(pushed(f64::NAN, f64::NEG_INFINITY, f64::INFINITY, 1e-2).is_nan());
+        // Finite values inside stay; outside they are pushed in.
+        assert_eq!(pushed(5.0, 0.0, 10.0, 1e-2), 5.0);
+        assert_eq!(pushed(-3.0, 0.0, 10.0, 1e-2), 1e-2);
+    }
 }
