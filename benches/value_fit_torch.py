@@ -12,7 +12,7 @@ points the same way and prints its time and losses:
   fifth of the points held out for validation (ghm draws its split and shuffles with
   another generator, so the losses agree in size, not to the digit).
 
-    python benches/value_fit_torch.py DIR [--threads 1]
+    python benches/value_fit_torch.py DIR [--threads 1] [--seed S]
 
 `benches/value_fit_side_by_side.sh` runs both on one core, one after the other.
 """

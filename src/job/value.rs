@@ -11,7 +11,7 @@ use crate::job::output::{model_hash, progress_bar_if, write_atomically, write_su
 use crate::job::{load_model, GuideChoice, JobError, JobOptions, RunFolder, WeatherSpec};
 use crate::model::Plant;
 use crate::report::plot::{draw_xy, Line};
-use crate::report::table::csv_text;
+use crate::report::table::{csv_text, csv_writer};
 use crate::rl::value_fit::{fit_value, EpochLoss, ValueFitConfig};
 use crate::sim::value_data::{nominal_run, sample_returns, ValueDataConfig};
 use serde::{Deserialize, Serialize};
@@ -370,14 +370,13 @@ fn value_state_name(plant: &Plant, state_index: usize) -> String {
 
 /// `value_data.csv`: one row a point, the state `state` reads, the step and the return.
 fn write_data(dir: &Path, state: &str, features: &[f64], returns: &[f64]) -> Result<(), JobError> {
-    use std::io::Write;
     write_atomically(&dir.join("value_data.csv"), |path| {
-        let mut file = std::io::BufWriter::new(std::fs::File::create(path)?);
-        writeln!(file, "{state},step,return")?;
+        let mut out = csv_writer(std::fs::File::create(path)?);
+        out.write_record([state, "step", "return"])?;
         for (point, r) in features.chunks_exact(2).zip(returns) {
-            writeln!(file, "{},{},{r}", point[0], point[1])?;
+            out.write_record([point[0].to_string(), point[1].to_string(), r.to_string()])?;
         }
-        file.flush()
+        out.flush().map_err(csv::Error::from)
     })
 }
 
